@@ -1,0 +1,32 @@
+"""cell: a MuJoCo-simulated robotic work-cell with vision in the loop.
+
+Importing the package sets ``MUJOCO_GL=egl`` when the user has not chosen a GL
+backend, so every renderer in the package is headless by default.
+"""
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from cell.errors import (  # noqa: E402
+    CalibrationError,
+    CellError,
+    IKError,
+    MotionError,
+    ScenarioError,
+    SimError,
+    VisionError,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CalibrationError",
+    "CellError",
+    "IKError",
+    "MotionError",
+    "ScenarioError",
+    "SimError",
+    "VisionError",
+    "__version__",
+]

@@ -1,0 +1,45 @@
+"""The one error hierarchy of the package.
+
+Every error the package raises on purpose is a ``CellError``; each package has its
+own subclass. Messages name the culprit (a key, an argument, a part) and, where
+there is a finite set of valid choices, list them.
+"""
+
+
+class CellError(Exception):
+    """Base of every error raised on purpose by ``cell``."""
+
+
+class ScenarioError(CellError):
+    """A scenario file or ``--set`` override is invalid (names the key and the file)."""
+
+
+class SimError(CellError):
+    """The simulated world cannot be built or driven as asked."""
+
+
+class VisionError(CellError):
+    """A vision function got input of the wrong type, dtype or shape."""
+
+
+class CalibrationError(CellError):
+    """Calibration data is missing, degenerate or inconsistent."""
+
+
+class IKError(CellError):
+    """Inverse kinematics failed: target unreachable or solver did not converge."""
+
+
+class MotionError(CellError):
+    """A motion cannot be planned or executed (limits, grasp lost, timeout)."""
+
+
+__all__ = [
+    "CalibrationError",
+    "CellError",
+    "IKError",
+    "MotionError",
+    "ScenarioError",
+    "SimError",
+    "VisionError",
+]

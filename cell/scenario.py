@@ -1,0 +1,127 @@
+"""Scenarios: one TOML file, validated into a frozen ``Scenario`` dataclass.
+
+Every field has a default, so an empty file is a valid scenario. An unknown key, a wrong
+type or an out-of-range value raises ``ScenarioError`` naming the key and the file.
+``--set key=value`` overrides (dotted keys for sections) are applied after the file.
+
+Example::
+
+    seed = 3
+    lighting = "back"
+
+    [parts]
+    count = 5
+    kinds = ["washer", "hex_nut"]
+
+    [conveyor]
+    speed = 0.1
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
+from cell.config import apply_override, build, setting
+from cell.errors import ScenarioError
+
+__all__ = [
+    "CameraSettings",
+    "ConveyorSettings",
+    "PartsSettings",
+    "Scenario",
+    "SensorSettings",
+    "load_scenario",
+    "scenario_from_dict",
+]
+
+
+@dataclass(frozen=True)
+class PartsSettings:
+    count: int = setting(10, lo=1, hi=10000, doc="parts spawned in a run")
+    kinds: tuple[str, ...] = setting(tuple(KINDS), choices=tuple(KINDS), doc="kinds to draw from")
+    materials: tuple[str, ...] = setting(
+        tuple(MATERIALS), choices=tuple(MATERIALS), doc="material finishes to draw from"
+    )
+    spacing: float = setting(
+        0.10, lo=0.04, hi=2.0, doc="belt travel between two spawns (m)"
+    )
+    lateral_range: float = setting(
+        0.04, lo=0.0, hi=0.06, doc="spawn offset across the belt, uniform in +-range (m)"
+    )
+
+    def _validate(self, where: str) -> None:
+        for key, value in (("parts.kinds", self.kinds), ("parts.materials", self.materials)):
+            if not value:
+                raise ScenarioError(f"{where}: key '{key}' must not be empty")
+
+
+@dataclass(frozen=True)
+class ConveyorSettings:
+    speed: float = setting(0.10, lo=0.0, hi=0.5, doc="belt speed (m/s)")
+    mode: str = setting(
+        "index",
+        choices=("index", "continuous"),
+        doc="index: stop when a part breaks the light barrier; continuous: never stop",
+    )
+
+
+@dataclass(frozen=True)
+class CameraSettings:
+    width: int = setting(640, lo=16, hi=4096, doc="image width (pixels)")
+    height: int = setting(480, lo=16, hi=4096, doc="image height (pixels)")
+    fovy: float = setting(40.0, lo=5.0, hi=120.0, doc="overhead camera vertical field of view (deg)")
+
+
+@dataclass(frozen=True)
+class SensorSettings:
+    noise_std: float = setting(1.5, lo=0.0, hi=100.0, doc="Gaussian read noise (grey levels)")
+    salt_pepper: float = setting(0.0, lo=0.0, hi=0.5, doc="fraction of pixels set to 0 or 255")
+    distortion: tuple[float, ...] = setting(
+        (0.0, 0.0, 0.0, 0.0, 0.0), lo=-1.0, hi=1.0, length=5, doc="k1, k2, p1, p2, k3"
+    )
+    bits: int = setting(8, lo=1, hi=8, doc="bit depth per channel")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str = setting("scenario", doc="a name for reports")
+    seed: int = setting(0, lo=0, hi=2**63 - 1, doc="seed of the run's random generator")
+    lighting: str = setting("front", choices=tuple(LIGHTING_PRESETS), doc="lighting preset")
+    parts: PartsSettings = setting(PartsSettings())
+    conveyor: ConveyorSettings = setting(ConveyorSettings())
+    camera: CameraSettings = setting(CameraSettings())
+    sensor: SensorSettings = setting(SensorSettings())
+
+
+def scenario_from_dict(
+    data: dict[str, Any], *, where: str = "<dict>", overrides: tuple[str, ...] | list[str] = ()
+) -> Scenario:
+    """Validate a nested dict (and ``key=value`` overrides) into a ``Scenario``."""
+    scenario = build(Scenario, data, where=where)
+    for assignment in overrides:  # validated one by one so an error names its --set
+        data = apply_override(data, assignment, Scenario)
+        scenario = build(Scenario, data, where=f"--set {assignment}")
+    return scenario
+
+
+def load_scenario(
+    path: str | Path, *, overrides: tuple[str, ...] | list[str] = (), seed: int | None = None
+) -> Scenario:
+    """Read a scenario TOML file, apply ``--set`` overrides and an optional seed.
+
+    Raises ``ScenarioError`` naming the file and key for any invalid input.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such scenario file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    if seed is not None:
+        overrides = [*overrides, f"seed={seed}"]
+    return scenario_from_dict(data, where=str(path), overrides=overrides)

@@ -41,7 +41,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class PartsSettings:
-    count: int = setting(10, lo=1, hi=10000, doc="parts spawned in a run")
+    count: int = setting(10, lo=1, hi=200, doc="parts spawned in a run (each is a body of the model)")
     kinds: tuple[str, ...] = setting(tuple(KINDS), choices=tuple(KINDS), doc="kinds to draw from")
     materials: tuple[str, ...] = setting(
         tuple(MATERIALS), choices=tuple(MATERIALS), doc="material finishes to draw from"

@@ -1,0 +1,86 @@
+"""Fixed furniture of the cell: the table, the bins and the checkerboard target.
+
+The checkerboard is built from geoms (black squares on a white board), not a texture,
+so the compiled model still exports to XML and its corners are exact.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from cell.sim import layout
+
+__all__ = ["add_bins", "add_table", "add_target", "target_corners_world"]
+
+_BOX = mujoco.mjtGeom.mjGEOM_BOX
+_BOARD_THICKNESS = 0.004
+_SQUARE_LIFT = 0.0002  # black squares sit this far above the white board (no z-fighting)
+
+
+def add_table(spec: mujoco.MjSpec) -> None:
+    """The table top: an infinite plane at z = 0 named ``table``."""
+    mat = spec.add_material()
+    mat.name = "table"
+    mat.rgba = [0.62, 0.60, 0.56, 1]
+    spec.worldbody.add_geom(
+        name="table", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="table"
+    )
+
+
+def add_bins(spec: mujoco.MjSpec) -> None:
+    """One open bin per class of ``layout.BINS`` (bodies ``bin_<class>``), floor + 4 walls."""
+    sx, sy, h = layout.BIN_SIZE
+    wall = 0.006
+    colours = {"metal": [0.35, 0.45, 0.6, 1], "plastic": [0.7, 0.55, 0.2, 1],
+               "reject": [0.7, 0.2, 0.2, 1]}
+    for name, centre in layout.BINS.items():
+        body = spec.worldbody.add_body(name=f"bin_{name}", pos=centre.tolist())
+        rgba = colours[name]
+        body.add_geom(name=f"bin_{name}_floor", type=_BOX, size=[sx / 2, sy / 2, wall / 2],
+                      pos=[0, 0, wall / 2], rgba=rgba)
+        for i, (dx, dy) in enumerate(((1, 0), (-1, 0), (0, 1), (0, -1))):
+            size = [wall / 2, sy / 2 + wall, h / 2] if dx else [sx / 2 + wall, wall / 2, h / 2]
+            pos = [dx * (sx / 2 + wall / 2), dy * (sy / 2 + wall / 2), h / 2]
+            body.add_geom(name=f"bin_{name}_wall{i}", type=_BOX, size=size, pos=pos, rgba=rgba)
+
+
+def add_target(spec: mujoco.MjSpec) -> None:
+    """The checkerboard (body ``target``) flat on the table at ``layout.TARGET_CENTRE``.
+
+    ``TARGET_INNER_CORNERS`` = (8, 5) inner corners means 9 x 6 squares of
+    ``TARGET_SQUARE`` metres, inside a white margin one square wide.
+    """
+    nx, ny = layout.TARGET_INNER_CORNERS
+    s = layout.TARGET_SQUARE
+    body = spec.worldbody.add_body(name="target", pos=layout.TARGET_CENTRE.tolist())
+    body.add_geom(name="target_board", type=_BOX,
+                  size=[(nx + 3) * s / 2, (ny + 3) * s / 2, _BOARD_THICKNESS / 2],
+                  pos=[0, 0, _BOARD_THICKNESS / 2], rgba=[0.95, 0.95, 0.95, 1])
+    z = _BOARD_THICKNESS + _SQUARE_LIFT / 2
+    for i in range(nx + 1):
+        for j in range(ny + 1):
+            if (i + j) % 2:
+                continue
+            x = (i - nx / 2) * s
+            y = (j - ny / 2) * s
+            body.add_geom(name=f"target_sq_{i}_{j}", type=_BOX,
+                          size=[s / 2, s / 2, _SQUARE_LIFT / 2], pos=[x, y, z],
+                          rgba=[0.03, 0.03, 0.03, 1], contype=0, conaffinity=0)
+
+
+def target_corners_world() -> np.ndarray:
+    """World positions (N, 3) of the target's inner corners, row-major in x then y (metres).
+
+    Ground truth of the board's geometry: for scoring and for building the object points
+    a calibration uses (a real user knows their board's square size and layout too).
+    """
+    nx, ny = layout.TARGET_INNER_CORNERS
+    s = layout.TARGET_SQUARE
+    xs = (np.arange(nx) - (nx - 1) / 2) * s
+    ys = (np.arange(ny) - (ny - 1) / 2) * s
+    gx, gy = np.meshgrid(xs, ys)
+    z = _BOARD_THICKNESS + _SQUARE_LIFT
+    pts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)], axis=1)
+    return pts + layout.TARGET_CENTRE
+

@@ -1,0 +1,265 @@
+"""``World``: the whole cell built from a scenario, stepped, lit and rendered.
+
+The model is built once in code (``mujoco.MjSpec``) from named pieces: the table, the
+conveyor, the bins, the target, the lights, the cameras, the arm and one free body per
+part of the run. Parts wait off stage (floating, gravity compensated) until the conveyor
+spawns them upstream one after another; the model never changes during a run, so
+everything holding it (renderers, IK) stays valid.
+
+Randomness: one ``np.random.SeedSequence(scenario.seed)`` gives independent streams for
+the part sequence and for the sensor noise, so rendering more or fewer frames never
+changes which parts come.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from cell.camera import CameraModel
+from cell.catalogue import KINDS, MATERIALS
+from cell.errors import SimError
+from cell.scenario import Scenario
+from cell.sim import layout
+from cell.sim.cameras import CameraRig, Frame, add_overhead_camera, true_camera_model
+from cell.sim.conveyor import Conveyor, add_conveyor
+from cell.sim.fixtures import add_bins, add_table, add_target
+from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
+from cell.sim.parts import add_part, add_part_materials
+from cell.sim.sensor import SensorModel
+
+__all__ = ["PartInfo", "World", "build_spec"]
+
+_OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
+
+
+@dataclass(frozen=True)
+class PartInfo:
+    """One part of the run: ``id`` (1-based, as in segmentation), kind, finish (a
+    catalogue material name), material class (``metal``/``plastic``), colour, body id."""
+
+    id: int
+    kind: str
+    finish: str
+    material: str
+    colour: str
+    body_id: int
+
+
+def _draw_sequence(scenario: Scenario, rng: np.random.Generator) -> list[tuple[str, str]]:
+    kinds, finishes = scenario.parts.kinds, scenario.parts.materials
+    return [
+        (kinds[rng.integers(len(kinds))], finishes[rng.integers(len(finishes))])
+        for _ in range(scenario.parts.count)
+    ]
+
+
+def build_spec(
+    scenario: Scenario, sequence: list[tuple[str, str]], *, arm: bool = True
+) -> mujoco.MjSpec:
+    """The cell's ``MjSpec``: furniture, lights, cameras, the arm and one body per part."""
+    spec = mujoco.MjSpec()
+    spec.modelname = "cell"
+    spec.option.timestep = layout.TIMESTEP
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10
+    vis = spec.visual
+    vis.global_.offwidth = max(640, scenario.camera.width)
+    vis.global_.offheight = max(480, scenario.camera.height)
+    vis.map.znear = 0.01
+    add_table(spec)
+    add_conveyor(spec)
+    add_bins(spec)
+    add_target(spec)
+    add_lights(spec)
+    add_overhead_camera(spec, fovy=scenario.camera.fovy)
+    add_part_materials(spec)
+    if arm:
+        from cell.sim.arm import add_arm
+
+        add_arm(spec)
+    for i, (kind, finish) in enumerate(sequence, start=1):
+        pos = _OFFSTAGE + np.array([0.1 * (i % 20), 0.1 * (i // 20), 0.0])
+        body = add_part(spec, f"part_{i}", kind, finish, pos)
+        body.gravcomp = 1.0
+    return spec
+
+
+class World:
+    """The running cell. Build it with ``World.build(scenario)``.
+
+    Attributes: ``model``, ``data`` (MuJoCo), ``scenario``, ``parts`` (every part of the
+    run, spawned or not), ``conveyor`` (belt control), ``lighting`` (the active preset).
+    """
+
+    def __init__(self, scenario: Scenario, *, arm: bool = True) -> None:
+        self.scenario = scenario
+        seeds = np.random.SeedSequence(scenario.seed).spawn(3)
+        self.rng = np.random.default_rng(seeds[0])  # part sequence and spawn poses
+        self._sensor_rng = np.random.default_rng(seeds[1])
+        sequence = _draw_sequence(scenario, self.rng)
+        self.spec = build_spec(scenario, sequence, arm=arm)
+        try:
+            self.model = self.spec.compile()
+        except Exception as exc:  # MuJoCo raises ValueError with its compiler message
+            raise SimError(f"the cell's model does not compile: {exc}") from exc
+        self.data = mujoco.MjData(self.model)
+        self.has_arm = arm
+        self.parts: list[PartInfo] = []
+        for i, (kind, finish) in enumerate(sequence, start=1):
+            m = MATERIALS[finish]
+            bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, f"part_{i}")
+            self.parts.append(PartInfo(i, kind, finish, m.material, m.colour, bid))
+        self._part_of_geom = np.zeros(self.model.ngeom, dtype=np.int32)
+        body_to_part = {p.body_id: p.id for p in self.parts}
+        for g in range(self.model.ngeom):
+            self._part_of_geom[g] = body_to_part.get(int(self.model.geom_bodyid[g]), 0)
+        self.spawned = 0
+        self._travel_at_spawn = -math.inf
+        self.conveyor = Conveyor(self.model, scenario.conveyor.speed, scenario.conveyor.mode)
+        self.lighting: LightingPreset = apply_lighting(self.model, scenario.lighting)
+        self.lighting_name = scenario.lighting
+        self._rigs: dict[str, CameraRig] = {}
+        if arm:
+            from cell.sim.arm import set_home
+
+            set_home(self.model, self.data)
+        mujoco.mj_forward(self.model, self.data)
+
+    @classmethod
+    def build(cls, scenario: Scenario, *, arm: bool = True) -> World:
+        """Build the world of ``scenario``; ``arm=False`` leaves the robot out."""
+        return cls(scenario, arm=arm)
+
+    # --- time -------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return float(self.data.time)
+
+    @property
+    def barrier_blocked(self) -> bool:
+        """The light barrier's reading: True while something breaks its beam."""
+        return self.conveyor.barrier_blocked(self.data)
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` physics steps, running the conveyor and spawning parts."""
+        dt = self.model.opt.timestep
+        spacing = self.scenario.parts.spacing
+        for _ in range(n):
+            self.conveyor.update(self.data, dt)
+            if self.spawned < len(self.parts) and (
+                self.conveyor.travel - self._travel_at_spawn >= spacing
+            ):
+                self._spawn_upstream()
+            mujoco.mj_step(self.model, self.data)
+
+    def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
+        """Run until the light barrier is broken, then ``settle`` seconds more.
+
+        Returns False if nothing reached the barrier within ``timeout`` simulated seconds.
+        Only meaningful in ``index`` mode (in ``continuous`` mode parts pass through).
+        """
+        end = self.time + timeout
+        while not self.barrier_blocked:
+            if self.time >= end:
+                return False
+            self.step(10)
+        self.step(max(1, round(settle / self.model.opt.timestep)))
+        return True
+
+    # --- parts ------------------------------------------------------------------------
+    def _spawn_upstream(self) -> None:
+        lateral = self.scenario.parts.lateral_range
+        y = layout.CONVEYOR_Y + self.rng.uniform(-lateral, lateral)
+        yaw = self.rng.uniform(0.0, 2 * math.pi)
+        part = self.place_next_part(layout.SPAWN_X, y, yaw)
+        self._set_velocity(part, [self.conveyor.speed if self.conveyor.running else 0.0, 0, 0])
+        self._travel_at_spawn = self.conveyor.travel
+
+    def place_next_part(self, x: float, y: float, yaw: float) -> PartInfo:
+        """Put the next waiting part at rest at (x, y) (world, metres) with yaw (rad).
+
+        It is dropped from 1 mm above the surface under it (belt or table). Raises
+        SimError when every part of the run is already out.
+        """
+        if self.spawned >= len(self.parts):
+            raise SimError(f"all {len(self.parts)} parts of the run are already spawned")
+        part = self.parts[self.spawned]
+        self.spawned += 1
+        on_belt = abs(y - layout.CONVEYOR_Y) < layout.BELT_WIDTH / 2 and (
+            layout.BELT_X[0] <= x <= layout.BELT_X[1]
+        )
+        z = (layout.BELT_TOP if on_belt else 0.0) + KINDS[part.kind].height / 2 + 0.001
+        jnt = self.model.body_jntadr[part.body_id]
+        adr = self.model.jnt_qposadr[jnt]
+        self.data.qpos[adr : adr + 3] = [x, y, z]
+        self.data.qpos[adr + 3 : adr + 7] = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
+        self._set_velocity(part, [0, 0, 0])
+        self.model.body_gravcomp[part.body_id] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+        return part
+
+    def _set_velocity(self, part: PartInfo, v: list[float]) -> None:
+        dof = self.model.jnt_dofadr[self.model.body_jntadr[part.body_id]]
+        self.data.qvel[dof : dof + 6] = [*v, 0, 0, 0]
+
+    def part_pose(self, part_id: int) -> tuple[np.ndarray, np.ndarray]:
+        """GROUND TRUTH, for scoring only: position (3,) metres and quaternion wxyz (4,)."""
+        body = self.parts[part_id - 1].body_id
+        return self.data.xpos[body].copy(), self.data.xquat[body].copy()
+
+    def part_yaw(self, part_id: int) -> float:
+        """GROUND TRUTH, for scoring only: heading of the part's x axis (rad, -pi..pi)."""
+        R = self.data.xmat[self.parts[part_id - 1].body_id].reshape(3, 3)
+        return math.atan2(R[1, 0], R[0, 0])
+
+    # --- light and cameras ------------------------------------------------------------
+    def set_lighting(self, name: str) -> None:
+        """Switch to lighting preset ``name`` (no recompile; next render uses it)."""
+        self.lighting = apply_lighting(self.model, name)
+        self.lighting_name = name
+
+    def _rig(self, camera: str) -> CameraRig:
+        if camera not in self._rigs:
+            valid = [mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_CAMERA, i)
+                     for i in range(self.model.ncam)]
+            if camera not in valid:
+                raise SimError(f"unknown camera '{camera}'; valid: {', '.join(valid)}")
+            cam, s = self.scenario.camera, self.scenario.sensor
+            sensor = SensorModel(
+                K=self.camera_model(camera).K, width=cam.width, height=cam.height,
+                noise_std=s.noise_std, salt_pepper=s.salt_pepper, distortion=s.distortion,
+                bits=s.bits,
+            )
+            self._rigs[camera] = CameraRig(self.model, camera, sensor, self._part_of_geom)
+        return self._rigs[camera]
+
+    def camera_model(self, camera: str = "overhead") -> CameraModel:
+        """The true camera model (intrinsics, distortion, pose) of ``camera`` now."""
+        cam = self.scenario.camera
+        return true_camera_model(self.model, self.data, camera, cam.width, cam.height,
+                                 self.scenario.sensor.distortion)
+
+    def render(self, camera: str = "overhead", *, depth: bool = True, seg: bool = True) -> Frame:
+        """Render ``camera``: the sensor's RGB, and depth and segmentation if asked."""
+        rig = self._rig(camera)
+        rgb = rig.sensor.apply(rig.render_rgb(self.data), self._sensor_rng, gain=self.lighting.gain)
+        h, w = rgb.shape[:2]
+        d = rig.render_depth(self.data) if depth else np.zeros((h, w), np.float32)
+        s = rig.render_seg(self.data) if seg else np.zeros((h, w), np.int32)
+        return Frame(rgb=rgb, depth=d, seg=s, camera=self.camera_model(camera))
+
+    def save_xml(self, path: str | Path) -> None:
+        """Write the compiled model as MJCF for inspection."""
+        Path(path).write_text(self.spec.to_xml())
+
+    def close(self) -> None:
+        """Free the renderers' GL contexts."""
+        for rig in self._rigs.values():
+            rig.close()
+        self._rigs.clear()

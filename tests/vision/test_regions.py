@@ -1,0 +1,79 @@
+import cv2
+import numpy as np
+import pytest
+
+from cell.errors import VisionError
+from cell.vision.regions import region_grow, split_and_merge
+
+
+def _textured_belt(seed=8):
+    """A belt with per-pixel texture 40..200 and three uniform parts at grey 115..130."""
+    rng = np.random.default_rng(seed)
+    h, w = 96, 128
+    img = rng.integers(40, 201, (h, w)).astype(np.float64)
+    truth = []
+    for (x, y, s), level in zip([(10, 12, 30), (60, 20, 24), (30, 60, 28)], (118, 124, 130),
+                                strict=True):
+        m = np.zeros((h, w), bool)
+        m[y : y + s, x : x + s] = True
+        img[m] = level + rng.integers(-3, 4, m.sum())
+        truth.append(m)
+    return img.astype(np.uint8), truth
+
+
+def _iou(a, b):
+    return (a & b).sum() / (a | b).sum()
+
+
+def test_no_global_threshold_finds_the_parts():
+    img, truth = _textured_belt()
+    union = np.logical_or.reduce(truth)
+    best = max(max(_iou(img > t, union), _iou(img <= t, union)) for t in range(256))
+    assert best < 0.4
+
+
+@pytest.mark.parametrize("criterion", ["mean", "seed"])
+def test_region_growing_finds_parts_on_textured_belt(criterion):
+    img, truth = _textured_belt()
+    seeds = [np.argwhere(m).mean(axis=0)[::-1] for m in truth]
+    labels = region_grow(img, np.array(seeds), tolerance=10, criterion=criterion, connectivity=4)
+    for i, m in enumerate(truth):
+        assert _iou(labels == i + 1, m) > 0.85
+
+
+def test_region_growing_seed_criterion_equals_fixed_range_flood_fill():
+    rng = np.random.default_rng(9)
+    img = cv2.GaussianBlur(rng.integers(0, 256, (60, 70)).astype(np.uint8), (7, 7), 2)
+    seed = (35, 30)
+    labels = region_grow(img, np.array([seed]), tolerance=6.5, criterion="seed", connectivity=4)
+    ff = np.zeros((62, 72), np.uint8)
+    cv2.floodFill(img.copy(), ff, seed, 255, 6, 6, 4 | cv2.FLOODFILL_FIXED_RANGE
+                  | cv2.FLOODFILL_MASK_ONLY | (1 << 8))
+    np.testing.assert_array_equal(labels == 1, ff[1:-1, 1:-1] > 0)
+
+
+def test_region_growing_on_colour():
+    img = np.zeros((40, 40, 3), np.uint8)
+    img[:] = (30, 90, 200)
+    img[10:30, 10:30] = (200, 40, 40)
+    labels = region_grow(img, np.array([[20, 20], [2, 2]]), tolerance=20)
+    assert (labels == 1).sum() == 400 and (labels == 2).sum() == 1600 - 400
+
+
+def test_split_and_merge_finds_parts_on_textured_belt():
+    img, truth = _textured_belt()
+    labels = split_and_merge(img, tolerance=12, min_area=200)
+    regions = [labels == k for k in range(1, labels.max() + 1)]
+    assert len(regions) == 3  # the texture stays in pieces smaller than min_area
+    for m in truth:
+        assert max(_iou(r, m) for r in regions) > 0.85
+
+
+def test_region_errors_name_the_argument():
+    img = np.zeros((10, 10), np.uint8)
+    with pytest.raises(VisionError, match="seeds"):
+        region_grow(img, np.array([[20, 2]]), tolerance=5)
+    with pytest.raises(VisionError, match="criterion"):
+        region_grow(img, np.array([[2, 2]]), tolerance=5, criterion="max")
+    with pytest.raises(VisionError, match="min_size"):
+        split_and_merge(img, tolerance=5, min_size=3)

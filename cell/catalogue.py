@@ -60,7 +60,7 @@ KINDS: dict[str, PartKind] = {
         PartKind("washer", 0.020, 0.020, 0.002, 0.0105, 0, "M10 flat washer (DIN 125)"),
         PartKind("hex_nut", 0.0196, 0.017, 0.008, 0.010, 6, "M10 hex nut, 17 mm across flats"),
         PartKind("square_nut", 0.013, 0.013, 0.0065, 0.008, 4, "M8 square nut (DIN 557)"),
-        PartKind("bolt", 0.044, 0.0115, 0.0115, 0.0, 2, "M6x40 hex bolt lying on its side"),
+        PartKind("bolt", 0.044, 0.0115, 0.010, 0.0, 2, "M6x40 hex bolt lying on its side"),
         PartKind("l_bracket", 0.040, 0.030, 0.003, 0.0, 1, "L bracket, 40x30 mm legs 12 mm wide"),
         PartKind("disc", 0.030, 0.030, 0.004, 0.0, 0, "30 mm cap / disc"),
     )

@@ -22,7 +22,7 @@ DENSITY = {"steel": 7850.0, "aluminium": 2700.0, "brass": 8500.0, "plastic": 120
 _MESH_KINDS = ("washer", "hex_nut", "square_nut", "bolt")
 # Offsets (m) that put the body origin at the centroid of the part's silhouette from above,
 # so "position" means the same thing to the simulator and to the detector.
-_BOLT_DX = 0.0014  # shaft 40x6 mm at x=+2 mm, head ~4x10.75 mm at x=-20 mm
+_BOLT_DX = 0.0015  # shaft 40x6 mm at x=+2 mm, head 4x11.5 mm at x=-20 mm
 _BRACKET_D = 0.004345  # centroid of the L (legs 40x12 and 30x12 mm) from its bbox centre
 _SEGMENTS = 48  # samples around a ring; a multiple of 6 and 4 keeps hex/square corners exact
 
@@ -178,13 +178,16 @@ def add_part(
         visual(type=mesh_t, meshname="square_nut_visual")
         collision(type=box, size=[0.0065, 0.0065, h])
     elif kind.name == "bolt":
-        # M6x40 lying along x: shaft radius 3 mm, head 10 mm across flats, 4 mm thick.
+        # M6x40 lying along x: shaft radius 3 mm, hex head 10 mm across flats, 4 mm thick,
+        # resting on one of the head's flats (so it cannot roll) and the shaft's tip.
         shaft_quat = [math.cos(math.pi / 4), 0, math.sin(math.pi / 4), 0]  # z -> x
+        head_quat = np.zeros(4)  # then 30 deg about the axis: a flat faces down
+        mujoco.mju_mulQuat(head_quat, np.array(shaft_quat),
+                           np.array([math.cos(math.pi / 12), 0, 0, math.sin(math.pi / 12)]))
+        head_quat = head_quat.tolist()
         for fn in (visual, collision):
             fn(type=cyl, size=[0.003, 0.020, 0], pos=[0.002 + _BOLT_DX, 0, 0], quat=shaft_quat)
-        head = [-0.020 + _BOLT_DX, 0, 0]
-        visual(type=mesh_t, meshname="bolt_visual", pos=head, quat=shaft_quat)
-        collision(type=cyl, size=[0.00575, 0.002, 0], pos=head, quat=shaft_quat)
+            fn(type=mesh_t, meshname="bolt_visual", pos=[-0.020 + _BOLT_DX, 0, 0], quat=head_quat)
     elif kind.name == "l_bracket":
         # Two 12 mm wide legs of 40 and 30 mm, the footprint centred on the body origin.
         w, d = 0.012, _BRACKET_D

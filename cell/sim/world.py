@@ -32,8 +32,9 @@ from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
 from cell.sim.parts import add_part, add_part_materials
 from cell.sim.sensor import SensorModel
 
-__all__ = ["PartInfo", "World", "build_spec"]
+__all__ = ["CAMERAS", "PartInfo", "World", "build_spec"]
 
+CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
 
 
@@ -125,10 +126,16 @@ class World:
         self.lighting_name = scenario.lighting
         self._rigs: dict[str, CameraRig] = {}
         if arm:
-            from cell.sim.arm import set_home
-
-            set_home(self.model, self.data)
+            self._arm_home()
         mujoco.mj_forward(self.model, self.data)
+
+    def _arm_home(self) -> None:
+        """Put the arm at its home configuration, with its servos holding it there."""
+        from cell.sim.arm import HOME, JOINT_NAMES
+
+        for name, q in zip(JOINT_NAMES, HOME, strict=True):
+            self.data.qpos[self.model.joint(f"arm/{name}").qposadr[0]] = q
+            self.data.ctrl[self.model.actuator(f"arm/{name}").id] = q
 
     @classmethod
     def build(cls, scenario: Scenario, *, arm: bool = True) -> World:
@@ -224,25 +231,29 @@ class World:
         self.lighting = apply_lighting(self.model, name)
         self.lighting_name = name
 
+    def _camera_name(self, camera: str) -> str:
+        valid = [c for c in CAMERAS if c == "overhead" or self.has_arm]
+        if camera not in valid:
+            raise SimError(f"unknown camera '{camera}'; valid: {', '.join(valid)}")
+        return CAMERAS[camera]
+
     def _rig(self, camera: str) -> CameraRig:
         if camera not in self._rigs:
-            valid = [mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_CAMERA, i)
-                     for i in range(self.model.ncam)]
-            if camera not in valid:
-                raise SimError(f"unknown camera '{camera}'; valid: {', '.join(valid)}")
             cam, s = self.scenario.camera, self.scenario.sensor
             sensor = SensorModel(
                 K=self.camera_model(camera).K, width=cam.width, height=cam.height,
                 noise_std=s.noise_std, salt_pepper=s.salt_pepper, distortion=s.distortion,
                 bits=s.bits,
             )
-            self._rigs[camera] = CameraRig(self.model, camera, sensor, self._part_of_geom)
+            self._rigs[camera] = CameraRig(
+                self.model, self._camera_name(camera), sensor, self._part_of_geom
+            )
         return self._rigs[camera]
 
     def camera_model(self, camera: str = "overhead") -> CameraModel:
         """The true camera model (intrinsics, distortion, pose) of ``camera`` now."""
         cam = self.scenario.camera
-        return true_camera_model(self.model, self.data, camera, cam.width, cam.height,
+        return true_camera_model(self.model, self.data, self._camera_name(camera), cam.width, cam.height,
                                  self.scenario.sensor.distortion)
 
     def render(self, camera: str = "overhead", *, depth: bool = True, seg: bool = True) -> Frame:

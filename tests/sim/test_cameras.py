@@ -1,0 +1,74 @@
+"""The true camera model agrees with what the renderer draws."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cell.catalogue import KINDS
+from cell.sim import layout
+
+
+def _centroids(seg: np.ndarray) -> dict[int, np.ndarray]:
+    out = {}
+    for pid in np.unique(seg):
+        if pid == 0:
+            continue
+        v, u = np.nonzero(seg == pid)
+        out[int(pid)] = np.array([u.mean(), v.mean()])
+    return out
+
+
+def test_true_model_projects_part_centres_onto_segmentation_centroids(world_factory):
+    world = world_factory(parts={"count": 6, "kinds": ["washer"]}, sensor={"noise_std": 0.0})
+    spots = [(-0.05, 0.42), (0.0, 0.45), (0.05, 0.48), (-0.03, 0.49), (0.04, 0.41), (0.07, 0.45)]
+    for x, y in spots:
+        world.place_next_part(x, y, 0.0)
+    world.step(100)
+    frame = world.render()
+    found = _centroids(frame.seg)
+    assert set(found) == {p.id for p in world.parts}
+    top = KINDS["washer"].height / 2
+    for part in world.parts:
+        pos, _ = world.part_pose(part.id)
+        uv = frame.camera.project(pos + [0, 0, top])[0]
+        assert np.linalg.norm(uv - found[part.id]) < 0.5, (part.id, uv, found[part.id])
+
+
+def test_camera_model_matches_layout_and_opencv_axes(world_factory):
+    world = world_factory()
+    cam = world.camera_model("overhead")
+    # Looking straight down: optical axis (camera +z) is world -z, image x is world +x.
+    R = cam.T_world_camera[:3, :3]
+    assert np.allclose(R[:, 2], [0, 0, -1]) and np.allclose(R[:, 0], [1, 0, 0])
+    expected = layout.PICK_ZONE + [0, 0, layout.OVERHEAD_CAMERA_HEIGHT]
+    assert np.allclose(cam.T_world_camera[:3, 3], expected)
+    assert np.allclose(cam.project(layout.PICK_ZONE)[0], [(cam.width - 1) / 2, (cam.height - 1) / 2])
+
+
+def test_depth_is_distance_along_optical_axis(world_factory):
+    world = world_factory()
+    frame = world.render()
+    h, w = frame.depth.shape
+    belt = frame.depth[h // 2, w // 2]
+    assert abs(belt - layout.OVERHEAD_CAMERA_HEIGHT) < 1e-3
+    assert frame.depth.dtype == np.float32 and frame.seg.dtype == np.int32
+
+
+def test_sensor_distortion_moves_points_as_the_model_says(world_factory):
+    dist = [-0.25, 0.08, 0.0, 0.0, 0.0]
+    world = world_factory(parts={"count": 4, "kinds": ["washer"]},
+                          sensor={"noise_std": 0.0, "distortion": dist})
+    for x, y in [(-0.09, 0.38), (0.1, 0.52), (0.0, 0.45), (0.11, 0.39)]:
+        world.place_next_part(x, y, 0.0)
+    world.step(100)
+    frame = world.render()
+    assert np.allclose(frame.camera.dist, dist)
+    found = _centroids(frame.seg)
+    top = KINDS["washer"].height / 2
+    for part in world.parts:
+        pos, _ = world.part_pose(part.id)
+        distorted = frame.camera.project(pos + [0, 0, top])[0]
+        ideal = frame.camera.project(pos + [0, 0, top], distort=False)[0]
+        assert np.linalg.norm(distorted - found[part.id]) < 1.0
+        if np.linalg.norm(ideal - [319.5, 239.5]) > 150:  # far from centre: visibly moved
+            assert np.linalg.norm(ideal - found[part.id]) > 3.0

@@ -1,0 +1,57 @@
+"""The command line: snapshot writes its files; bad input exits 2 with one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).parent.parent
+
+
+def _cell(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.run([sys.executable, "-m", "cell.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, env=env, timeout=300)
+
+
+def test_snapshot_writes_the_documented_files(tmp_path):
+    out = tmp_path / "snap"
+    r = _cell("snapshot", "scenarios/sort.toml", "--set", "parts.count=3", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rgb = cv2.imread(str(out / "rgb.png"))
+    depth, seg = np.load(out / "depth.npy"), np.load(out / "seg.npy")
+    cam = json.loads((out / "camera.json").read_text())
+    truth = json.loads((out / "truth.json").read_text())
+    assert rgb.shape == (480, 640, 3) and depth.dtype == np.float32 and seg.dtype == np.int32
+    assert depth.shape == seg.shape == (480, 640)
+    assert set(cam) == {"width", "height", "K", "dist", "T_world_camera"}
+    ids = {p["id"] for p in truth["parts"]}
+    assert set(np.unique(seg)) - {0} <= ids and len(set(np.unique(seg)) - {0}) >= 1
+    for row in truth["parts"]:
+        assert set(row) == {"id", "kind", "material", "colour", "defect", "position", "quat", "yaw"}
+    assert "part at the pick zone" in r.stdout
+
+
+def test_bad_scenario_exits_2_with_one_line_and_no_traceback(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[conveyor]\nspeed = -1.0\n")
+    r = _cell("snapshot", str(bad), "--out", str(tmp_path / "x"))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "conveyor.speed" in lines[0] and str(bad) in lines[0]
+    assert "Traceback" not in r.stderr
+
+    r = _cell("snapshot", "scenarios/sort.toml", "--set", "lighting=disco", "--out", str(tmp_path))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "valid: front, back" in r.stderr
+
+
+def test_unknown_command_lists_the_valid_ones():
+    r = _cell("fly")
+    assert r.returncode == 2 and "valid: snapshot" in r.stderr

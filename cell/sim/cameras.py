@@ -111,6 +111,6 @@ class CameraRig:
         finally:
             r.disable_segmentation_rendering()
         obj, kind = raw[..., 0], raw[..., 1]
-        is_geom = (kind == mujoco.mjtObj.mjOBJ_GEOM) & (obj >= 0)
+        is_geom = (kind == int(mujoco.mjtObj.mjOBJ_GEOM)) & (obj >= 0)
         seg = np.where(is_geom, self.part_of_geom[np.clip(obj, 0, None)], 0).astype(np.int32)
         return self.sensor.warp(seg, nearest=True)

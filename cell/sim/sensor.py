@@ -18,6 +18,19 @@ import numpy as np
 __all__ = ["SensorModel"]
 
 
+def _add_gaussian(image: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
+    """``image`` (uint8) plus N(0, sigma^2) noise per pixel and channel, rounded, saturated.
+
+    OpenCV's generator is 3-4x faster than numpy's for a full frame; it is seeded from
+    ``rng`` each call, so the run stays a function of the scenario seed alone.
+    """
+    flat = image.reshape(image.shape[0], -1)  # one channel: randn's sigma is per channel
+    noise = np.empty(flat.shape, np.float32)
+    cv2.setRNGSeed(int(rng.integers(2**31 - 1)))
+    cv2.randn(noise, 0.0, float(sigma))
+    return cv2.add(flat.astype(np.float32), noise, dtype=cv2.CV_8U).reshape(image.shape)
+
+
 @dataclass
 class SensorModel:
     """Sensor parameters: noise in grey levels, s&p fraction, distortion, bits, gain."""
@@ -64,8 +77,7 @@ class SensorModel:
         out = self.warp(rgb)
         sigma = self.noise_std * gain
         if sigma > 0:
-            noisy = out.astype(np.float32) + rng.normal(0.0, sigma, out.shape).astype(np.float32)
-            out = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+            out = _add_gaussian(out, sigma, rng)
         if self.bits < 8:
             step = 1 << (8 - self.bits)
             out = (out // step) * step

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Every benchmark, one after another (`make bench`). Each prints ratios measured in one run.
+set -uo pipefail
+cd "$(dirname "$0")"
+status=0
+for script in render.sh vision.sh pick.sh; do
+  if [ -f "$script" ]; then
+    echo "== $script"
+    bash "$script" || status=1
+  fi
+done
+exit $status

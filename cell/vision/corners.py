@@ -1,0 +1,139 @@
+"""Harris corners, written out: structure tensor, response, threshold, non-maximum
+suppression.
+
+At each pixel the structure tensor ``M = sum_w [Ix^2, IxIy; IxIy, Iy^2]`` sums the
+gradient products over a ``block_size`` window; the Harris response is
+``R = det(M) - k trace(M)^2``: large positive at corners (two large eigenvalues),
+negative along edges (one), near zero on flat ground.
+
+References: C. Harris and M. Stephens, "A combined corner and edge detector", Alvey
+Vision Conference, 1988; Szeliski, *Computer Vision: Algorithms and Applications*,
+2nd ed., 7.1.1. :func:`harris_response` reproduces ``cv2.cornerHarris`` (same Sobel
+scaling and unnormalised box sum) and is tested against it.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from cell.errors import VisionError
+from cell.vision._checks import check_choice, check_gray, check_odd
+
+__all__ = ["harris_corners", "harris_response", "non_max_suppression"]
+
+
+def harris_response(
+    image: np.ndarray, *, block_size: int = 3, ksize: int = 3, k: float = 0.04
+) -> np.ndarray:
+    """Harris response ``R = det(M) - k trace(M)^2`` per pixel (float32 (H, W)).
+
+    Parameters
+    ----------
+    image : uint8 or float32 (H, W).
+    block_size : side of the window summing the gradient products (pixels, >= 2).
+    ksize : Sobel aperture (1, 3, 5, 7).
+    k : Harris constant, typically 0.04-0.06.
+
+    The derivatives are scaled by ``1 / (2**(ksize-1) * block_size * 255)`` for uint8
+    input (without the 255 for float), as OpenCV does, so the values equal
+    ``cv2.cornerHarris(image, block_size, ksize, k)``. Borders reflect (101).
+    """
+    image = check_gray("image", image, dtypes=(np.uint8, np.float32))
+    check_choice("ksize", ksize, (1, 3, 5, 7))
+    if not isinstance(block_size, int | np.integer) or block_size < 2:
+        raise VisionError(f"argument 'block_size': expected an integer >= 2, got {block_size!r}")
+    scale = float(2 ** ((ksize if ksize > 0 else 3) - 1) * block_size)
+    if image.dtype == np.uint8:
+        scale *= 255.0
+    scale = 1.0 / scale
+    ix = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=ksize, scale=scale)
+    iy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=ksize, scale=scale)
+
+    def window_sum(a: np.ndarray) -> np.ndarray:
+        return cv2.boxFilter(a, -1, (block_size, block_size), normalize=False)
+
+    a, b, c = window_sum(ix * ix), window_sum(ix * iy), window_sum(iy * iy)
+    return (a * c - b * b - np.float32(k) * (a + c) ** 2).astype(np.float32)
+
+
+def non_max_suppression(
+    response: np.ndarray, *, min_distance: int, threshold: float
+) -> np.ndarray:
+    """Local maxima of ``response`` above ``threshold``, at least ``min_distance`` apart.
+
+    A pixel is kept when it equals the maximum of its (2 min_distance + 1)^2
+    neighbourhood; flat plateaus collapse to their centroid; then, strongest first,
+    any kept point closer than ``min_distance`` (pixels) to a stronger one is dropped.
+
+    Returns (N, 2) float64 points (x, y), strongest first.
+    """
+    response = check_gray("response", response, dtypes=(np.float32,))
+    if min_distance < 1:
+        raise VisionError(f"argument 'min_distance': expected >= 1, got {min_distance!r}")
+    size = 2 * int(min_distance) + 1
+    peak = cv2.dilate(response, np.ones((size, size), np.uint8))
+    keep = (response >= peak) & (response > threshold)
+    n, labels, _, cents = cv2.connectedComponentsWithStats(keep.view(np.uint8), connectivity=8)
+    if n <= 1:
+        return np.zeros((0, 2))
+    strength = np.zeros(n, np.float64)
+    np.maximum.at(strength, labels[keep], response[keep])
+    order = np.argsort(-strength[1:], kind="stable") + 1
+    pts = cents[order]
+    chosen: list[np.ndarray] = []
+    for p in pts:
+        if all(np.hypot(*(p - q)) >= min_distance for q in chosen):
+            chosen.append(p)
+    return np.array(chosen)
+
+
+def harris_corners(
+    image: np.ndarray,
+    *,
+    block_size: int = 3,
+    ksize: int = 3,
+    k: float = 0.04,
+    threshold_rel: float = 0.05,
+    min_distance: int = 4,
+    smooth: float = 0.0,
+    refine: str = "subpix",
+) -> np.ndarray:
+    """Corner points of a grey image: Harris response, threshold, NMS, refinement.
+
+    Parameters
+    ----------
+    image : uint8 (H, W).
+    block_size, ksize, k : see :func:`harris_response`.
+    threshold_rel : keep responses above this fraction of the image's maximum (0..1).
+    min_distance : NMS radius in pixels.
+    smooth : sigma (pixels) of a Gaussian applied before (0: none).
+    refine : "subpix" moves each point to the sub-pixel position where the local
+        gradients are orthogonal to the vectors from it (``cv2.cornerSubPix``, a
+        corner's apex); "none" keeps the response peak, which sits about one pixel
+        inside a convex corner.
+
+    Returns (N, 2) float64 (x, y) pixels, strongest first.
+    """
+    image = check_gray("image", image)
+    check_choice("refine", refine, ("subpix", "none"))
+    if not 0.0 < threshold_rel < 1.0:
+        raise VisionError(f"argument 'threshold_rel': expected in (0, 1), got {threshold_rel!r}")
+    if block_size % 2 == 0:
+        check_odd("block_size", block_size)
+    src = cv2.GaussianBlur(image, (0, 0), smooth) if smooth > 0 else image
+    r = harris_response(src, block_size=block_size, ksize=ksize, k=k)
+    rmax = float(r.max())
+    if rmax <= 0:
+        return np.zeros((0, 2))
+    pts = non_max_suppression(r, min_distance=min_distance, threshold=threshold_rel * rmax)
+    if refine == "subpix" and len(pts):
+        win = max(2, min_distance // 2 + 1)
+        crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01)
+        refined = cv2.cornerSubPix(src, pts.astype(np.float32).reshape(-1, 1, 2).copy(),
+                                   (win, win), (-1, -1), crit).reshape(-1, 2)
+        # keep the peak where refinement ran away (flat window)
+        moved = np.hypot(*(refined - pts).T) > win
+        refined[moved] = pts[moved]
+        pts = refined.astype(np.float64)
+    return pts

@@ -1,0 +1,69 @@
+import cv2
+import numpy as np
+import pytest
+
+from cell.errors import VisionError
+from cell.vision.edges import canny, contour_closure, sobel
+from tests.vision import box_scene
+
+SHADES = {"top": 200, "-x": 150, "+x": 150, "-y": 115, "+y": 115}
+
+
+def test_sobel_on_a_ramp_and_a_step():
+    ramp = np.tile(np.arange(40, dtype=np.float32) * 3, (20, 1))
+    g = sobel(ramp, normalize=True)
+    np.testing.assert_allclose(g.gx[5:-5, 5:-5], 3.0, atol=1e-4)
+    np.testing.assert_allclose(g.gy[5:-5, 5:-5], 0.0, atol=1e-4)
+    step = np.zeros((20, 40), np.uint8)
+    step[:, 20:] = 100
+    raw = sobel(step)
+    assert raw.magnitude.max() == pytest.approx(400.0)  # 4 x the step, as Canny sees it
+    np.testing.assert_allclose(raw.direction[10, 19:21], 0.0)
+    np.testing.assert_array_equal(raw.gx, cv2.Sobel(step, cv2.CV_32F, 1, 0))
+
+
+def test_closure_measure_on_drawn_contours():
+    img = np.zeros((60, 60), np.uint8)
+    cv2.rectangle(img, (10, 10), (40, 40), 1)
+    closed = contour_closure(img > 0, max_gap=0)
+    assert closed.loops == 1 and closed.endpoints == 0 and closed.closure == 1.0
+    assert closed.largest_loop_area == 29 * 29
+    img[10, 20:23] = 0  # a 3 px gap
+    opened = contour_closure(img > 0, max_gap=0)
+    assert opened.loops == 0 and opened.endpoints == 2 and opened.closure == 0.0
+    assert contour_closure(img > 0, max_gap=3).loops == 1  # bridged
+
+
+def test_canny_thresholds_on_a_box_too_high_too_low_chosen():
+    """The syllabus claim, on an obliquely seen box under a light from the right."""
+    cam = box_scene.camera()
+    img, _, _, truth = box_scene.render(cam, yaw=np.radians(10), shades=SHADES, light_ramp=1.2)
+    img = cv2.GaussianBlur(img, (0, 0), 1.0)
+    dist_to_truth = cv2.distanceTransform((~truth).view(np.uint8), cv2.DIST_L2, 3)
+
+    def score(low, high):
+        e = canny(img, low=low, high=high)
+        dist_to_edge = cv2.distanceTransform((~e).view(np.uint8), cv2.DIST_L2, 3)
+        recall = float((dist_to_edge[truth] <= 2).mean())
+        clutter = float((dist_to_truth[e] > 2).mean()) if e.any() else 0.0
+        return recall, clutter, contour_closure(e)
+
+    hi_recall, _, hi = score(120, 320)  # too high: the dim side of the outline is lost
+    lo_recall, lo_clutter, lo = score(5, 10)  # too low: belt texture everywhere
+    ok_recall, ok_clutter, ok = score(40, 100)  # chosen
+    print(f"too high: recall {hi_recall:.2f} {hi}")
+    print(f"too low: clutter {lo_clutter:.2f} {lo}")
+    print(f"chosen: recall {ok_recall:.2f} clutter {ok_clutter:.2f} {ok}")
+    assert hi_recall < 0.8 and hi.loops == 0 and hi.closure == 0.0
+    assert lo_clutter > 0.5 and lo.fragments > 100 and lo.closure < 0.5
+    assert ok_recall > 0.95 and ok_clutter < 0.05
+    assert ok.loops == 3 and ok.closure > 0.9  # top and two side faces, each closed
+
+
+def test_edges_errors_name_the_argument():
+    with pytest.raises(VisionError, match="low"):
+        canny(np.zeros((8, 8), np.uint8), low=50, high=10)
+    with pytest.raises(VisionError, match="image"):
+        canny(np.zeros((8, 8), np.float32), low=1, high=2)
+    with pytest.raises(VisionError, match="ksize"):
+        sobel(np.zeros((8, 8), np.uint8), ksize=4)

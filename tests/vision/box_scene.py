@@ -16,6 +16,7 @@ from cell.camera import CameraModel
 
 SIZE = (0.040, 0.030, 0.020)  # metres
 W, H = 320, 240
+DEFAULT_YAW = float(np.radians(20))
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
@@ -38,7 +39,7 @@ def camera(eye=(-0.075, -0.10, 0.18)) -> CameraModel:
     return CameraModel(W, H, K, np.zeros(5), look_at(eye, (0.0, 0.0, 0.01)))
 
 
-def box_vertices(yaw=np.radians(20)) -> np.ndarray:
+def box_vertices(yaw=DEFAULT_YAW) -> np.ndarray:
     """The 8 corners (8, 3), index bits: x sign (1), y sign (2), top (4)."""
     lx, ly, lz = SIZE
     c, s = np.cos(yaw), np.sin(yaw)
@@ -61,7 +62,7 @@ FACES = {  # vertex indices (any order around the face), outward normal in box f
 def render(
     cam: CameraModel,
     *,
-    yaw=np.radians(20),
+    yaw=DEFAULT_YAW,
     shades=None,
     belt=70,
     texture=6.0,
@@ -108,7 +109,7 @@ def render(
     return np.clip(np.rint(img), 0, 255).astype(np.uint8), verts, silhouette, edges > 0
 
 
-def corner_vertices(cam: CameraModel, *, yaw=np.radians(20), max_angle_deg=150.0) -> np.ndarray:
+def corner_vertices(cam: CameraModel, *, yaw=DEFAULT_YAW, max_angle_deg=150.0) -> np.ndarray:
     """Pixels (N, 2) of the visible vertices that look like corners in the image: the
     sharpest angle between two visible box edges meeting there is below
     ``max_angle_deg`` (a vertex whose edges project almost onto one line is, to any

@@ -27,6 +27,7 @@ from typing import Any
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, setting
 from cell.errors import ScenarioError
+from cell.robot.settings import RobotSettings
 
 __all__ = [
     "CameraSettings",
@@ -95,6 +96,7 @@ class Scenario:
     conveyor: ConveyorSettings = setting(ConveyorSettings())
     camera: CameraSettings = setting(CameraSettings())
     sensor: SensorSettings = setting(SensorSettings())
+    robot: RobotSettings = setting(RobotSettings())
 
 
 def scenario_from_dict(

@@ -1,0 +1,42 @@
+"""The robot: pinocchio kinematics, mink IK, time-scaled motion, suction, pick-and-place.
+
+Names load lazily (``from cell.robot import PickPlace``), so that reading the settings
+(``cell.robot.settings``, used by the scenario) does not import pinocchio and mink.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__all__ = [
+    "GRASP_POINTS",
+    "ArmDriver",
+    "ArmIK",
+    "ArmKinematics",
+    "PartTarget",
+    "PickPlace",
+    "PickResult",
+    "RobotSettings",
+    "Segment",
+    "SuctionCup",
+    "choose_tool_yaw",
+    "down_rotation",
+    "min_time",
+    "plan_segment",
+    "tool_yaw",
+]
+
+_WHERE = {
+    "GRASP_POINTS": "pick", "PartTarget": "pick", "PickPlace": "pick", "PickResult": "pick",
+    "choose_tool_yaw": "pick", "ArmDriver": "motion", "ArmIK": "ik", "down_rotation": "ik",
+    "tool_yaw": "ik", "ArmKinematics": "kinematics", "RobotSettings": "settings",
+    "Segment": "trajectory", "min_time": "trajectory", "plan_segment": "trajectory",
+    "SuctionCup": "suction",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'cell.robot' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"cell.robot.{_WHERE[name]}"), name)

@@ -9,17 +9,19 @@ pose) reads the same kinematics as MuJoCo.
 
 Geometry is primitive (cylinders, capsules) with the real link offsets (upper arm
 0.138 m, forearm 0.007 m off the DH plane); masses are the published UR5e link
-masses with rod/cylinder inertias. Each joint has a position servo (``<joint>``,
-stiffness ``kp``) and a velocity servo (``<joint>_vel``, gain ``kv``): commanding a
-reference position and velocity gives a PD law with velocity feed-forward; with the
-velocity control left at 0 it is an ordinary damped position servo. Gravity is
+masses with rod/cylinder inertias. Each joint has, as a servo drive's cascade, a
+position servo (``<joint>``, stiffness ``kp``), a velocity servo (``<joint>_vel``,
+gain ``kv``) and a torque feed-forward input (``<joint>_ff``, N m): commanding a
+reference position, velocity and the model's inverse-dynamics torque gives a PD law
+with feed-forward; with the other two controls left at 0 it is an ordinary damped
+position servo. Gravity is
 compensated through the actuators (as a controller's model-based feed-forward), and
 the total joint torque is clamped to the UR5e efforts (150/150/150/28/28/28 N m).
 
 The suction tool: a housing on the flange, a bellows cup (geom ``cup``) whose lip is
 a ring of eight small spheres (robust multi-point contact), site ``tcp`` at the cup
 face (``TOOL_LENGTH`` from the flange, on the flange z axis), an adhesion actuator
-``suction`` on the cup body (ctrl 0..1, ``SUCTION_FORCE`` N at 1) and a touch sensor
+``suction`` on the tool body (ctrl 0..1, ``SUCTION_FORCE`` N at 1) and a touch sensor
 ``suction_touch`` (normal contact force on the lip, N) that plays the vacuum switch.
 Parts move only through contact and adhesion forces.
 
@@ -86,6 +88,7 @@ _ARMATURE = (0.1, 0.1, 0.1, 0.05, 0.05, 0.05)  # reflected rotor inertia, kg m^2
 
 TOOL_LENGTH = 0.12  # flange to cup face (tcp), metres
 SUCTION_FORCE = 6.0  # adhesion force at full vacuum, N
+_LIP_REACH = 0.002  # the vacuum pulls a part within this distance of the lip, m
 WRIST_CAMERA_OFFSET = np.array([0.0, 0.065, 0.03])  # camera in the flange frame, metres
 WRIST_CAMERA_FOVY = 50.0  # degrees
 
@@ -118,6 +121,14 @@ def _geom(body, name: str, kind: str, size, *, fromto=None, pos=(0, 0, 0), rgba=
     else:
         g.pos = list(pos)
     return g
+
+
+def _stiff(geom) -> None:
+    """Rubber cup contact: its own friction, and stiff enough (2-step time constant) that
+    the suction force cannot pull a light part through the lip."""
+    geom.priority = 1
+    geom.friction = [1.2, 0.01, 0.001]
+    geom.solref = [2 * layout.TIMESTEP, 1.0]
 
 
 def _set_inertia(body, mass: float, com, length: float, radius: float, axis: int) -> None:
@@ -188,10 +199,10 @@ def _add_suction_tool(spec: mujoco.MjSpec, wrist3) -> None:
     d6 = DH[5][0]
     tool = wrist3.add_body(name="tool", pos=[0, 0, d6])
     tool.explicitinertial = True
-    tool.mass, tool.ipos, tool.inertia = 0.25, [0, 0, 0.04], [2.5e-4, 2.5e-4, 1.0e-4]
+    tool.mass, tool.ipos, tool.inertia = 0.26, [0, 0, 0.045], [3.0e-4, 3.0e-4, 1.0e-4]
     tool.gravcomp = 1.0
     _geom(tool, "tool_housing", "cyl", (0.03, 0.035), pos=(0, 0, 0.035), rgba=_DARK)
-    _geom(tool, "cup_stem", "cyl", (0.007, 0.0125), pos=(0, 0, 0.0825), rgba=_DARK)
+    _geom(tool, "cup_stem", "cyl", (0.007, 0.0155), pos=(0, 0, 0.0855), rgba=_DARK)
     # camera bracket and camera body, off the tool axis
     cam_y, cam_z = WRIST_CAMERA_OFFSET[1], WRIST_CAMERA_OFFSET[2]
     _geom(tool, "camera_bracket", "box", (0.01, cam_y / 2, 0.006), pos=(0, cam_y / 2, 0.01),
@@ -202,23 +213,22 @@ def _add_suction_tool(spec: mujoco.MjSpec, wrist3) -> None:
     tool.add_camera(name="wrist_camera", pos=list(WRIST_CAMERA_OFFSET), quat=_quat_rx(np.pi),
                     fovy=WRIST_CAMERA_FOVY)
 
-    cup = tool.add_body(name="suction_cup", pos=[0, 0, 0.095])
-    cup.explicitinertial = True
-    cup.mass, cup.ipos, cup.inertia = 0.01, [0, 0, 0.012], [5e-7, 5e-7, 5e-7]
-    cup.gravcomp = 1.0
-    face = TOOL_LENGTH - 0.095  # cup face below the cup body origin
-    _geom(cup, "cup", "cyl", (0.0095, (face - 0.001) / 2), pos=(0, 0, (face - 0.001) / 2),
-          rgba=(0.1, 0.1, 0.1, 1.0))
+    # The cup shares the tool body: pinocchio misplaces sites on nested fixed bodies.
+    face = TOOL_LENGTH
+    cup = _geom(tool, "cup", "cyl", (0.0095, 0.009), pos=(0, 0, face - 0.0015 - 0.009),
+                rgba=(0.1, 0.1, 0.1, 1.0))
+    _stiff(cup)
     lip_r, ring = 0.0015, 0.0062
     for k in range(8):
         ang = 2 * np.pi * k / 8
-        g = _geom(cup, f"cup_lip{k}", "sph", (lip_r,),
+        g = _geom(tool, f"cup_lip{k}", "sph", (lip_r,),
                   pos=(ring * np.cos(ang), ring * np.sin(ang), face - lip_r),
                   rgba=(0.1, 0.1, 0.1, 1.0))
-        g.friction = [1.2, 0.01, 0.001]
-    cup.add_site(name="tcp", pos=[0, 0, face], size=[0.003, 0, 0])
-    cup.add_site(name="suction_zone", type=mujoco.mjtGeom.mjGEOM_BOX,
-                 pos=[0, 0, face - 0.002], size=[0.011, 0.011, 0.004], rgba=[0, 1, 0, 0.0])
+        _stiff(g)
+        g.margin, g.gap = _LIP_REACH, _LIP_REACH  # detected within reach, active on touch
+    tool.add_site(name="tcp", pos=[0, 0, face], size=[0.003, 0, 0])
+    tool.add_site(name="suction_zone", type=mujoco.mjtGeom.mjGEOM_BOX,
+                  pos=[0, 0, face - 0.002], size=[0.011, 0.011, 0.004], rgba=[0, 1, 0, 0.0])
     spec.add_sensor(name="suction_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
                     objtype=mujoco.mjtObj.mjOBJ_SITE, objname="suction_zone")
 
@@ -234,9 +244,14 @@ def _add_servos(spec: mujoco.MjSpec) -> None:
         vel.set_to_velocity(kv=_KV[i])
         vel.ctrlrange = [-SPEED_LIMIT, SPEED_LIMIT]
         vel.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    if spec.body("suction_cup") is not None:
+        ff = spec.add_actuator(name=f"{name}_ff", trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                               target=name)
+        ff.set_to_motor()
+        ff.ctrlrange = [-EFFORT[i], EFFORT[i]]
+        ff.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    if spec.body("tool") is not None:
         act = spec.add_actuator(name="suction", trntype=mujoco.mjtTrn.mjTRN_BODY,
-                                target="suction_cup")
+                                target="tool")
         act.set_to_adhesion(SUCTION_FORCE)
         act.ctrlrange = [0.0, 1.0]
 
@@ -261,7 +276,7 @@ def build_arm(*, tool: str = "suction") -> mujoco.MjSpec:
     _add_servos(spec)
     key = spec.add_key(name="home")
     key.qpos = list(HOME)
-    key.ctrl = [v for q in HOME for v in (float(q), 0.0)] + [0.0]
+    key.ctrl = [v for q in HOME for v in (float(q), 0.0, 0.0)] + [0.0]
     return spec
 
 

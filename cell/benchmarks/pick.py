@@ -1,0 +1,134 @@
+"""``cell bench pick [--json] [--quick] [--poses N] [--seed S]``: the robot alone.
+
+For each part kind, ``N`` (default 20) random poses in the pick zone, given from the
+simulator's ground truth (this isolates the robot from vision): the part is put at
+rest on the stopped belt, the pick-and-place skill takes it to its class's bin, and
+the part's final ground-truth position scores the pick (success = it lies inside the
+right bin). Reported per kind and overall:
+
+- success rate;
+- mean cycle time (simulated s, from HOME over the part, to the bin and back to HOME);
+- ratio of the cycle time to the time-optimal bound: the sum of the minimum times of
+  the same joint segments (rest-to-rest straight joint lines) under the same speed and
+  acceleration limits (the ratio is measured per cycle, in one run);
+- cycles per simulated minute;
+- IK wall time per solve (ms): mean and 95th percentile, and iterations per solve.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from cell.catalogue import KINDS
+from cell.errors import CellError
+from cell.scenario import scenario_from_dict
+from cell.sim import World, layout
+
+__all__ = ["main", "run_kind"]
+
+_X_RANGE = 0.04  # pick-zone poses: x within +-this of PICK_ZONE (m)
+_Y_RANGE = 0.05  # and y within +-this of the belt's centre line (m)
+
+
+def _in_bin(pos: np.ndarray, bin_name: str) -> bool:
+    centre = layout.BINS[bin_name]
+    half = np.array(layout.BIN_SIZE[:2]) / 2
+    return bool(np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2])
+
+
+def run_kind(kind: str, poses: int, seed: int) -> dict:
+    """Run ``poses`` pick-and-place cycles of ``kind``; returns the figures as a dict."""
+    from cell.robot.pick import PartTarget, PickPlace
+
+    scenario = scenario_from_dict({
+        "seed": seed, "parts": {"count": poses + 1, "kinds": [kind]},
+        "conveyor": {"speed": 0.0},
+    })
+    world = World.build(scenario)
+    rng = np.random.default_rng([seed, list(KINDS).index(kind)])
+    skill = PickPlace(world.model, world.data, world.step, scenario.robot)
+    world.step(50)  # with the belt stopped the first (upstream) spawn stays at SPAWN_X
+    cycles, ratios, ik_ms, ik_its, errors, ok = [], [], [], [], [], 0
+    for _ in range(poses):
+        x = layout.PICK_ZONE[0] + rng.uniform(-_X_RANGE, _X_RANGE)
+        y = layout.CONVEYOR_Y + rng.uniform(-_Y_RANGE, _Y_RANGE)
+        part = world.place_next_part(x, y, rng.uniform(0.0, 2 * np.pi))
+        world.step(50)  # comes to rest
+        pos, _ = world.part_pose(part.id)  # GROUND TRUTH: the benchmark's input
+        target = PartTarget(part.kind, float(pos[0]), float(pos[1]),
+                            world.part_yaw(part.id), part.material)
+        try:
+            result = skill.run(target)
+        except CellError as exc:
+            errors.append(str(exc))
+        else:
+            cycles.append(result.cycle_time)
+            ratios.append(result.cycle_time / result.bound_time)
+            ik_ms += [1000 * t for t in result.ik_times]
+            ik_its += list(result.ik_iterations)
+        world.step(150)  # let the part come to rest in the bin
+        ok += _in_bin(world.part_pose(part.id)[0], part.material)
+    world.close()
+    mean_cycle = float(np.mean(cycles)) if cycles else float("nan")
+    return {
+        "poses": poses,
+        "success_rate": ok / poses,
+        "mean_cycle_s": mean_cycle,
+        "cycles_per_min": 60.0 / mean_cycle if cycles else 0.0,
+        "ratio_to_optimal": float(np.mean(ratios)) if ratios else float("nan"),
+        "ratio_to_optimal_max": float(np.max(ratios)) if ratios else float("nan"),
+        "ik_ms_mean": float(np.mean(ik_ms)) if ik_ms else float("nan"),
+        "ik_ms_p95": float(np.percentile(ik_ms, 95)) if ik_ms else float("nan"),
+        "ik_iterations_mean": float(np.mean(ik_its)) if ik_its else float("nan"),
+        "errors": errors,
+    }
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(prog="cell bench pick", description=__doc__.split("\n")[0])
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--quick", action="store_true", help="2 poses per kind (smoke test)")
+    ap.add_argument("--poses", type=int, default=20, help="poses per kind (default 20)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--kinds", nargs="*", default=list(KINDS), choices=list(KINDS))
+    args = ap.parse_args(argv)
+    poses = 2 if args.quick else args.poses
+    t0 = time.perf_counter()
+    per_kind = {k: run_kind(k, poses, args.seed) for k in args.kinds}
+    rows = list(per_kind.values())
+    n = sum(r["poses"] for r in rows)
+    cyc = [r["mean_cycle_s"] for r in rows]
+    overall = {
+        "poses": n,
+        "success_rate": sum(r["success_rate"] * r["poses"] for r in rows) / n,
+        "mean_cycle_s": float(np.nanmean(cyc)),
+        "cycles_per_min": 60.0 / float(np.nanmean(cyc)),
+        "ratio_to_optimal": float(np.nanmean([r["ratio_to_optimal"] for r in rows])),
+        "ik_ms_mean": float(np.nanmean([r["ik_ms_mean"] for r in rows])),
+        "wall_s": time.perf_counter() - t0,
+    }
+    if args.json:
+        print(json.dumps({"benchmark": "pick", "seed": args.seed, "kinds": per_kind,
+                          "overall": overall}, indent=2))
+        return 0
+    print(f"pick benchmark: {poses} ground-truth poses per kind, seed {args.seed}")
+    print(f"{'kind':<11} {'success':>8} {'cycle s':>8} {'cyc/min':>8} {'ratio':>6} "
+          f"{'ratio max':>9} {'IK ms':>6} {'IK p95':>7} {'IK it':>6}")
+    for k, r in per_kind.items():
+        print(f"{k:<11} {100 * r['success_rate']:>7.1f}% {r['mean_cycle_s']:>8.3f} "
+              f"{r['cycles_per_min']:>8.1f} {r['ratio_to_optimal']:>6.3f} "
+              f"{r['ratio_to_optimal_max']:>9.3f} {r['ik_ms_mean']:>6.3f} {r['ik_ms_p95']:>7.3f} "
+              f"{r['ik_iterations_mean']:>6.2f}")
+        for e in r["errors"]:
+            print(f"    error: {e}")
+    o = overall
+    print(f"{'overall':<11} {100 * o['success_rate']:>7.1f}% {o['mean_cycle_s']:>8.3f} "
+          f"{o['cycles_per_min']:>8.1f} {o['ratio_to_optimal']:>6.3f} {'':>9} "
+          f"{o['ik_ms_mean']:>6.3f}")
+    print("ratio = cycle time / time-optimal time of the same joint segments under the same "
+          f"limits; wall {o['wall_s']:.1f} s")
+    return 0

@@ -1,0 +1,187 @@
+"""``ArmIK``: inverse kinematics of the arm with mink, collision-aware.
+
+The IK works on its own MuJoCo model of the cell's fixed furniture (table, conveyor,
+bins: the same builders as the simulated world, i.e. the cell's CAD) with the arm
+attached at ``layout.ARM_BASE``; parts are not in it. Each solve iterates mink's
+differential IK (Zakka, *mink: Python inverse kinematics based on MuJoCo*, 2024;
+QP-based, Caron's *pink* formulation) with
+
+- a ``FrameTask`` on the ``tcp`` site (position and orientation),
+- a low-weight ``PostureTask`` towards the seed (keeps the solution on the seed's
+  branch: elbow up, wrist the least turned),
+- ``ConfigurationLimit`` (joint ranges), ``VelocityLimit`` (the joint speed limit over
+  one iteration) and ``CollisionAvoidanceLimit`` (arm links and tool against table,
+  conveyor and bins),
+
+until the TCP is within ``ik_tolerance`` (and 10x that in radians) of the target.
+Targets are "tool pointing down" poses: a TCP position and a yaw about world z.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mink
+import mujoco
+import numpy as np
+
+from cell.errors import IKError
+from cell.robot.settings import RobotSettings
+from cell.sim import layout
+from cell.sim.arm import JOINT_NAMES, add_arm
+from cell.sim.conveyor import add_conveyor
+from cell.sim.fixtures import add_bins, add_table
+
+__all__ = ["ArmIK", "down_rotation", "tool_yaw"]
+
+_PREFIX = "arm/"
+_ARM_LINKS = ("upper_arm", "elbow_housing", "forearm", "wrist_1_housing", "wrist_2_housing",
+              "wrist_3_housing", "tool_housing", "camera_body", "camera_bracket")
+_OBSTACLES = ("table", "belt", "conveyor_frame", "rail_left", "rail_right")
+_IK_DT = 0.2  # s: one iteration may move each joint by up to speed limit x this
+
+
+def down_rotation(yaw: float) -> np.ndarray:
+    """``R_world_tool`` (3x3) of a tool pointing straight down (z = -world z) whose x axis
+    points at heading ``yaw`` (rad) in the table plane."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
+
+
+def tool_yaw(R_world_tool: np.ndarray) -> float:
+    """Heading (rad) of the tool's x axis in the table plane."""
+    return float(np.arctan2(R_world_tool[1, 0], R_world_tool[0, 0]))
+
+
+def _wrap(angle: float) -> float:
+    return float((angle + np.pi) % (2 * np.pi) - np.pi)
+
+
+def _ik_spec() -> mujoco.MjSpec:
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    add_table(spec)
+    add_conveyor(spec)
+    add_bins(spec)
+    add_arm(spec)
+    return spec
+
+
+class ArmIK:
+    """Collision-aware IK for tool-down targets. Not thread-safe (one model, one data).
+
+    ``solve`` returns joint angles (6,) rad; ``fk`` gives the TCP pose of the IK model.
+    ``stats`` holds the wall time (s) and iteration count of every solve.
+    """
+
+    def __init__(self, settings: RobotSettings | None = None) -> None:
+        self.settings = settings or RobotSettings()
+        self.model = _ik_spec().compile()
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._qadr = np.array([m.joint(_PREFIX + n).qposadr[0] for n in JOINT_NAMES])
+        if not np.array_equal(self._qadr, np.arange(6)) or m.nq != 6:
+            raise IKError("IK model: expected the arm's 6 joints as the only coordinates")
+        self.configuration = mink.Configuration(m)
+        self.task = mink.FrameTask(_PREFIX + "tcp", "site", position_cost=1.0,
+                                   orientation_cost=0.5, lm_damping=1e-6)
+        self.posture = mink.PostureTask(m, cost=1e-3)
+        vmax = np.deg2rad(self.settings.max_joint_speed)
+        obstacles = [g for g in _OBSTACLES + tuple(f"bin_{b}_wall{i}" for b in layout.BINS
+                                                   for i in range(4))]
+        links = [_PREFIX + g for g in _ARM_LINKS]
+        self.limits = [
+            mink.ConfigurationLimit(m),
+            mink.VelocityLimit(m, {_PREFIX + n: vmax for n in JOINT_NAMES}),
+            mink.CollisionAvoidanceLimit(m, geom_pairs=[(links, obstacles)],
+                                         minimum_distance_from_collisions=0.01,
+                                         collision_detection_distance=0.05),
+        ]
+        self._link_ids = {m.geom(g).id for g in links + [_PREFIX + "cup"]}
+        self._obstacle_ids = {m.geom(g).id for g in obstacles}
+        self.stats: list[tuple[float, int]] = []
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """TCP position (3,) m and ``R_world_tool`` (3, 3) at joint angles ``q``."""
+        d = self.data
+        d.qpos[:] = q
+        mujoco.mj_kinematics(self.model, d)
+        site = d.site(_PREFIX + "tcp")
+        return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
+
+    def collides(self, q: np.ndarray, *, clearance: float = 0.0) -> str | None:
+        """Name of the first arm link nearer than ``clearance`` (m) to the furniture at
+        ``q``, or None."""
+        m, d = self.model, self.data
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        fromto = np.zeros(6)
+        for a in self._link_ids:
+            for b in self._obstacle_ids:
+                dist = mujoco.mj_geomDistance(m, d, a, b, clearance + 0.05, fromto)
+                if dist < clearance:
+                    return f"{m.geom(a).name} vs {m.geom(b).name}"
+        return None
+
+    def seed_towards(self, position: np.ndarray, yaw: float, q_ref: np.ndarray) -> np.ndarray:
+        """A seed (6,) rad for a tool-down target: ``q_ref`` with the base turned by the
+        target's change of azimuth and the wrist by what is left of the change of yaw,
+        wrapped to (-pi, pi] (the wrist turns the least); arm shape kept."""
+        p_ref, R_ref = self.fk(q_ref)
+        d_az = _wrap(np.arctan2(position[1], position[0]) - np.arctan2(p_ref[1], p_ref[0]))
+        d_yaw = _wrap(yaw - tool_yaw(R_ref))
+        q = np.array(q_ref, dtype=np.float64)
+        q[0] += d_az
+        q[5] += d_az - d_yaw  # tool down: yaw = q1 - q6 + const
+        lo, hi = self.model.jnt_range[:, 0], self.model.jnt_range[:, 1]
+        for i in (0, 5):
+            if q[i] > hi[i]:
+                q[i] -= 2 * np.pi
+            elif q[i] < lo[i]:
+                q[i] += 2 * np.pi
+        return q
+
+    def solve(self, position: np.ndarray, yaw: float, seed: np.ndarray, *,
+              what: str = "target") -> np.ndarray:
+        """Joint angles (6,) rad that put the TCP at ``position`` (world, m), tool down
+        with heading ``yaw`` (rad), starting from ``seed`` (6,) rad.
+
+        Raises ``IKError`` naming ``what`` and the target when the solver does not reach
+        the tolerance in ``ik_max_iterations`` (unreachable, or blocked by the limits).
+        """
+        s = self.settings
+        position = np.asarray(position, dtype=np.float64)
+        t0 = time.perf_counter()
+        reach = np.linalg.norm(position[:2] - layout.ARM_BASE[:2])
+        if reach > 0.95 or position[2] < -0.05:
+            raise IKError(f"IK for {what} at {np.round(position, 4).tolist()} m: out of the "
+                          f"arm's reach ({reach:.3f} m from the base axis, UR5e: 0.85 m)")
+        cfg = self.configuration
+        cfg.update(np.asarray(seed, dtype=np.float64))
+        target = mink.SE3.from_rotation_and_translation(
+            mink.SO3.from_matrix(down_rotation(yaw)), position)
+        self.task.set_target(target)
+        self.posture.set_target(cfg.q)
+        tasks = [self.task, self.posture]
+        tol_p, tol_r = s.ik_tolerance, 10 * s.ik_tolerance
+        err = self.task.compute_error(cfg)
+        it = 0
+        while np.linalg.norm(err[:3]) > tol_p or np.linalg.norm(err[3:]) > tol_r:
+            if it >= s.ik_max_iterations:
+                self.stats.append((time.perf_counter() - t0, it))
+                raise IKError(
+                    f"IK for {what} at {np.round(position, 4).tolist()} m, yaw "
+                    f"{yaw:.3f} rad: no convergence in {it} iterations (position error "
+                    f"{1000 * np.linalg.norm(err[:3]):.2f} mm, orientation error "
+                    f"{np.linalg.norm(err[3:]):.4f} rad): unreachable or blocked by joint "
+                    "or collision limits")
+            try:
+                v = mink.solve_ik(cfg, tasks, _IK_DT, "daqp", limits=self.limits)
+            except mink.NoSolutionFound as exc:
+                raise IKError(f"IK for {what} at {np.round(position, 4).tolist()} m: "
+                              f"the QP has no solution ({exc})") from None
+            cfg.integrate_inplace(v, _IK_DT)
+            err = self.task.compute_error(cfg)
+            it += 1
+        self.stats.append((time.perf_counter() - t0, it))
+        return cfg.q.copy()

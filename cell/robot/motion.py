@@ -1,0 +1,101 @@
+"""``ArmDriver``: runs time-scaled joint motions on the simulated arm's servos.
+
+Each physics step it commands the trajectory's position and velocity to the position
+and velocity servos and the model's inverse-dynamics torque (pinocchio, gravity left
+to the servos' compensation) to the feed-forward input, as an industrial servo drive
+with feed-forward does. After a segment it holds the goal until every joint is within
+``settle_tolerance`` (rad), or raises ``MotionError``. It reads only what a robot
+controller reads: joint encoders (``qpos``/``qvel`` of the arm's joints).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+from cell.errors import MotionError
+from cell.robot.kinematics import ArmKinematics
+from cell.robot.settings import RobotSettings
+from cell.robot.trajectory import Segment, plan_segment
+from cell.sim.arm import JOINT_NAMES
+
+__all__ = ["ArmDriver"]
+
+
+class ArmDriver:
+    """Drives the arm named ``prefix`` in ``model``/``data``; ``step(n)`` advances the
+    simulation ``n`` physics steps (``World.step``). ``log``: when a list, every
+    commanded sample ``(time, q, qd, qdd)`` is appended to it."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, step: Callable[[int], None],
+                 settings: RobotSettings | None = None, *, kinematics: ArmKinematics | None = None,
+                 prefix: str = "arm/", log: list | None = None) -> None:
+        self.model, self.data, self._step = model, data, step
+        self.settings = settings or RobotSettings()
+        self.kin = kinematics or ArmKinematics()
+        self.vmax = np.deg2rad(self.settings.max_joint_speed)
+        self.amax = np.deg2rad(self.settings.max_joint_accel)
+        self.dt = float(model.opt.timestep)
+        names = [prefix + n for n in JOINT_NAMES]
+        self._qadr = np.array([model.joint(n).qposadr[0] for n in names])
+        self._dadr = np.array([model.joint(n).dofadr[0] for n in names])
+        self._pos = np.array([model.actuator(n).id for n in names])
+        self._vel = np.array([model.actuator(n + "_vel").id for n in names])
+        self._ff = np.array([model.actuator(n + "_ff").id for n in names])
+        self.log = log
+        self.q_cmd = self.joint_positions()
+
+    def joint_positions(self) -> np.ndarray:
+        """Encoder reading (6,) rad."""
+        return self.data.qpos[self._qadr].copy()
+
+    def joint_velocities(self) -> np.ndarray:
+        """Encoder velocity (6,) rad/s."""
+        return self.data.qvel[self._dadr].copy()
+
+    def command(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> None:
+        """Send one servo set-point: position (rad), velocity (rad/s), acceleration
+        (rad/s^2, turned into feed-forward torque)."""
+        ctrl = self.data.ctrl
+        ctrl[self._pos] = q
+        ctrl[self._vel] = qd
+        ctrl[self._ff] = self.kin.feedforward_torque(q, qd, qdd)
+        self.q_cmd = np.array(q, dtype=np.float64)
+        if self.log is not None:
+            self.log.append((float(self.data.time), self.q_cmd, np.array(qd), np.array(qdd)))
+
+    def plan(self, q_goal: np.ndarray) -> Segment:
+        """The time-optimal segment from the last commanded position to ``q_goal``."""
+        return plan_segment(self.q_cmd, q_goal, self.vmax, self.amax)
+
+    def move(self, q_goal: np.ndarray, *, what: str = "goal") -> Segment:
+        """Run the segment to ``q_goal`` (rad) and wait until the joints settle there.
+
+        Raises ``MotionError`` naming ``what`` if they do not settle in
+        ``settle_timeout`` (blocked, or a servo saturated)."""
+        seg = self.plan(q_goal)
+        n = int(np.ceil(seg.duration / self.dt - 1e-9))
+        for k in range(1, n + 1):
+            self.command(*seg.sample(k * self.dt))
+            self._step(1)
+        self.command(seg.q1, np.zeros(6), np.zeros(6))
+        self.settle(what=what)
+        return seg
+
+    def settle(self, *, what: str = "goal") -> None:
+        """Hold the last command until every joint is within ``settle_tolerance``."""
+        s = self.settings
+        for _ in range(int(np.ceil(s.settle_timeout / self.dt))):
+            err = np.abs(self.joint_positions() - self.q_cmd).max()
+            if err < s.settle_tolerance and np.abs(self.joint_velocities()).max() < 0.05:
+                return
+            self._step(1)
+        raise MotionError(
+            f"arm did not settle at {what} {np.round(self.q_cmd, 3).tolist()} rad within "
+            f"{s.settle_timeout} s (joint error {err:.4f} rad): blocked or saturated")
+
+    def wait(self, seconds: float) -> None:
+        """Hold the last command for ``seconds`` of simulated time."""
+        self._step(max(0, int(round(seconds / self.dt))))

@@ -1,0 +1,212 @@
+"""Pick and place with the suction tool: approach, descend, grasp, verify, lift,
+transfer above the bin, release, retreat to ``HOME``.
+
+Input is what the vision (or, in the pick benchmark, the simulator's ground truth)
+says about a part: its kind, where its frame is on the table (x, y world metres: the
+centroid of its silhouette) and its yaw (rad). The tool points down; its yaw is the
+part's yaw turned by a multiple of the part's symmetry (catalogue ``symmetry``, 0 =
+continuous) chosen so the wrist turns the least. Every motion is a time-optimal
+straight joint segment (``trajectory``) between IK solutions (``ik``).
+``IKError``/``MotionError`` name the part and the reason; the arm is back at
+``HOME`` (or as near as it could get) when they are raised, so a caller catches one
+per part and goes on.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from cell.catalogue import KINDS
+from cell.errors import IKError, MotionError
+from cell.robot.ik import ArmIK, tool_yaw
+from cell.robot.kinematics import ArmKinematics
+from cell.robot.motion import ArmDriver
+from cell.robot.settings import RobotSettings
+from cell.robot.suction import SuctionCup
+from cell.robot.trajectory import min_time
+from cell.sim import layout
+from cell.sim.arm import HOME
+
+__all__ = ["GRASP_POINTS", "PartTarget", "PickPlace", "PickResult", "choose_tool_yaw"]
+
+# Where the cup goes on each kind: (dx, dy) in the part frame from its silhouette
+# centroid, and the height of that spot above the surface the part lies on (metres).
+# The L bracket's centroid lies 1.3 mm from an edge of its long leg: the cup goes to
+# that leg's centre line. The bolt lies on its side: the cup sits on the 6 mm shaft.
+GRASP_POINTS: dict[str, tuple[float, float, float]] = {
+    "washer": (0.0, 0.0, KINDS["washer"].height),
+    "hex_nut": (0.0, 0.0, KINDS["hex_nut"].height),
+    "square_nut": (0.0, 0.0, KINDS["square_nut"].height),
+    "bolt": (0.0, 0.0, KINDS["bolt"].height / 2 + 0.003),
+    "l_bracket": (0.0, -0.004655, KINDS["l_bracket"].height),
+    "disc": (0.0, 0.0, KINDS["disc"].height),
+}
+_HOVER = 0.001  # the cup face stops this far above the part's top; the vacuum pulls
+# the part up against the lip (the lip's reach is 2 mm), so the arm never pushes on it
+_SAMPLES = 12  # configurations checked for collisions along each free-space segment
+
+
+def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float) -> float:
+    """The tool yaw (rad) equivalent to ``part_yaw`` under a ``symmetry``-fold rotation
+    (0 = continuous) nearest to ``natural_yaw``, the yaw reached without turning the
+    wrist."""
+    if symmetry == 0:
+        return float(natural_yaw)
+    step = 2 * np.pi / symmetry
+    k = np.round((natural_yaw - part_yaw) / step)
+    return float(part_yaw + k * step)
+
+
+@dataclass(frozen=True)
+class PartTarget:
+    """A part to pick: ``kind`` (catalogue name), its frame at (``x``, ``y``) world
+    metres with heading ``yaw`` rad, lying on a surface at height ``surface_z`` (m),
+    going to ``bin`` (a key of ``layout.BINS``)."""
+
+    kind: str
+    x: float
+    y: float
+    yaw: float
+    bin: str
+    surface_z: float = layout.BELT_TOP
+
+
+@dataclass(frozen=True)
+class PickResult:
+    """What one pick-and-place did: ``cycle_time`` (simulated s, HOME to HOME),
+    ``bound_time`` (s, the time-optimal time of the same joint segments under the same
+    limits), ``ik_times`` (wall s per IK solve), ``ik_iterations`` per solve."""
+
+    cycle_time: float
+    bound_time: float
+    ik_times: tuple[float, ...]
+    ik_iterations: tuple[int, ...]
+    waypoints: dict[str, np.ndarray] = field(repr=False)
+
+
+class PickPlace:
+    """The pick-and-place skill on a simulated cell (``model``, ``data``, ``step``).
+
+    Create it once per world (it builds its IK model and pinocchio model) with the arm
+    at ``HOME``; call :meth:`run` per part.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, step: Callable[[int], None],
+                 settings: RobotSettings | None = None, *, log: list | None = None) -> None:
+        self.settings = settings or RobotSettings()
+        self.ik = ArmIK(self.settings)
+        self.driver = ArmDriver(model, data, step, self.settings,
+                                kinematics=ArmKinematics(), log=log)
+        self.cup = SuctionCup(model, data, seal_force=self.settings.seal_force)
+        self.data = data
+        self.home = HOME.copy()
+        self._seeds: dict[str, np.ndarray] = {}
+
+    # --- planning -------------------------------------------------------------------
+    def _solve(self, key: str, position: np.ndarray, yaw: float | None, q_ref: np.ndarray,
+               what: str) -> np.ndarray:
+        """IK from the last solution for ``key`` (or ``q_ref``), turned towards the target.
+        ``yaw`` None: keep the wrist still."""
+        if yaw is None:
+            p_ref, R_ref = self.ik.fk(q_ref)
+            d_az = np.arctan2(position[1], position[0]) - np.arctan2(p_ref[1], p_ref[0])
+            yaw = tool_yaw(R_ref) + d_az
+        base = self._seeds.get(key, q_ref)
+        seed = self.ik.seed_towards(position, yaw, base)
+        q = self.ik.solve(position, yaw, seed, what=what)
+        self._seeds[key] = q
+        return q
+
+    def _check_path(self, q0: np.ndarray, q1: np.ndarray, clearance: float, what: str) -> None:
+        for s in np.linspace(0.0, 1.0, _SAMPLES):
+            hit = self.ik.collides(q0 + s * (q1 - q0), clearance=clearance)
+            if hit is not None:
+                raise MotionError(f"{what}: the straight joint path passes within "
+                                  f"{clearance * 1000:.0f} mm of the cell ({hit})")
+
+    def plan(self, part: PartTarget) -> dict[str, np.ndarray]:
+        """Joint waypoints (rad) of one cycle: above, grasp, above_bin (and home)."""
+        if part.kind not in GRASP_POINTS:
+            raise IKError(f"no grasp known for kind {part.kind!r}; valid: {', '.join(GRASP_POINTS)}")
+        if part.bin not in layout.BINS:
+            raise IKError(f"unknown bin {part.bin!r}; valid: {', '.join(layout.BINS)}")
+        name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
+        dx, dy, top = GRASP_POINTS[part.kind]
+        c, s = np.cos(part.yaw), np.sin(part.yaw)
+        grasp = np.array([part.x + c * dx - s * dy, part.y + s * dx + c * dy,
+                          part.surface_z + top + _HOVER])
+        start = self.driver.q_cmd.copy()
+        p_start, R_start = self.ik.fk(start)
+        d_az = np.arctan2(grasp[1], grasp[0]) - np.arctan2(p_start[1], p_start[0])
+        yaw = choose_tool_yaw(part.yaw, KINDS[part.kind].symmetry, tool_yaw(R_start) + d_az)
+        above = grasp + [0.0, 0.0, self.settings.approach_height]
+        q_above = self._solve("above", above, yaw, start, f"approach above {name}")
+        q_grasp = self.ik.solve(grasp, yaw, q_above, what=f"grasp of {name}")
+        height = KINDS[part.kind].height
+        drop = layout.BINS[part.bin] + [0.0, 0.0, layout.BIN_SIZE[2] +
+                                        self.settings.release_height + height]
+        q_bin = self._solve(f"bin_{part.bin}", drop, None, q_above, f"bin '{part.bin}' for {name}")
+        # Back to HOME with the wrist left as it is: a suction cup needs no particular
+        # wrist angle at HOME, and not unwinding it saves up to half a second.
+        home = self.home.copy()
+        home[5] = q_bin[5]
+        self._check_path(start, q_above, 0.005, f"approach to {name}")
+        self._check_path(q_above, q_bin, height + 0.005, f"transfer of {name}")
+        self._check_path(q_bin, home, 0.005, f"retreat from bin '{part.bin}'")
+        return {"start": start, "above": q_above, "grasp": q_grasp, "bin": q_bin, "home": home}
+
+    # --- execution ------------------------------------------------------------------
+    def _wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
+        for _ in range(int(np.ceil(timeout / self.driver.dt))):
+            if condition():
+                return True
+            self.driver.wait(self.driver.dt)
+        return condition()
+
+    def _abort(self, message: str) -> MotionError:
+        self.cup.off()
+        home = self.home.copy()
+        home[5] = self.driver.q_cmd[5]
+        with contextlib.suppress(MotionError):
+            self.driver.move(home, what="home after an aborted pick")
+        return MotionError(message)
+
+    def run(self, part: PartTarget) -> PickResult:
+        """Pick ``part`` and place it in its bin; returns a :class:`PickResult`.
+
+        Raises ``IKError`` (no solution, nothing moved) or ``MotionError`` (grasp not
+        verified, part lost, arm blocked; the arm returns home first)."""
+        t0 = self.data.time
+        n_ik = len(self.ik.stats)
+        wp = self.plan(part)
+        name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
+        d = self.driver
+        segs = [d.move(wp["above"], what=f"approach above {name}"),
+                d.move(wp["grasp"], what=f"grasp of {name}")]
+        self.cup.on()
+        self._wait_for(self.cup.sealed, self.settings.grasp_timeout)
+        segs.append(d.move(wp["above"], what=f"lift of {name}"))
+        if not self.cup.sealed():  # verify: the vacuum switch must report a held part
+            raise self._abort(f"grasp of {name} failed: the vacuum switch reads "
+                              f"{self.cup.reading():.2f} N after the lift, no part held")
+        segs.append(d.move(wp["bin"], what=f"transfer of {name}"))
+        if not self.cup.sealed():
+            raise self._abort(f"{name} was lost during the transfer to bin '{part.bin}'")
+        self.cup.off()
+        self._wait_for(lambda: self.cup.reading() < 0.01, self.settings.release_time + 0.2)
+        self.driver.wait(self.settings.release_time)
+        segs.append(d.move(wp["home"], what="home"))
+        bound = sum(min_time(s.q0, s.q1, d.vmax, d.amax) for s in segs)
+        stats = self.ik.stats[n_ik:]
+        return PickResult(
+            cycle_time=float(self.data.time - t0),
+            bound_time=float(bound),
+            ik_times=tuple(t for t, _ in stats),
+            ik_iterations=tuple(i for _, i in stats),
+            waypoints=wp,
+        )

@@ -1,0 +1,68 @@
+import cv2
+import numpy as np
+import pytest
+
+from cell.errors import VisionError
+from cell.vision.features import orb_match
+from cell.vision.template import best_match, match_ncc
+
+
+def _bracket(seed=30):
+    """A 120 x 90 px part (a bracket with holes, a slot and a stamped label): a 40 mm
+    bracket seen from the wrist camera about 0.1 m above it."""
+    rng = np.random.default_rng(seed)
+    img = np.zeros((90, 120), np.uint8)
+    img[:] = 170
+    img[45:, 60:] = 0  # L-shaped outline: a notch
+    for _ in range(6):
+        x, y = int(rng.integers(8, 52)), int(rng.integers(8, 80))
+        cv2.circle(img, (x, y), int(rng.integers(3, 6)), 40, -1)
+    cv2.rectangle(img, (70, 8), (110, 16), 60, -1)
+    cv2.putText(img, "C7", (14, 40), cv2.FONT_HERSHEY_SIMPLEX, 0.9, 250, 2)
+    return img
+
+
+def _scene_with(part, angle_deg, centre, seed=31):
+    rng = np.random.default_rng(seed)
+    scene = cv2.GaussianBlur(rng.normal(90, 12, (240, 320)).astype(np.float32), (0, 0), 1.5)
+    h, w = part.shape
+    M = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle_deg, 1.0)
+    M[:, 2] += np.array(centre) - [(w - 1) / 2, (h - 1) / 2]
+    warped = cv2.warpAffine(part, M, (320, 240), flags=cv2.INTER_LINEAR)
+    mask = cv2.warpAffine(np.full_like(part, 255), M, (320, 240)) > 127
+    scene[mask] = warped[mask]
+    scene += rng.normal(0, 2, scene.shape)
+    return np.clip(scene, 0, 255).astype(np.uint8), M
+
+
+def test_orb_ransac_finds_a_rotated_part_where_ncc_fails():
+    part = _bracket()
+    true_centre = (190.0, 110.0)
+    scene, M = _scene_with(part, 50.0, true_centre)
+    ncc = best_match(match_ncc(scene, part), part.shape, method="ncc")
+    ncc_err = np.hypot(ncc.centre[0] - true_centre[0], ncc.centre[1] - true_centre[1])
+    assert ncc.score < 0.5 or ncc_err > 10  # the upright template does not fit
+
+    found = orb_match(part, scene)
+    assert found is not None and found.inliers >= 15
+    assert np.hypot(found.centre[0] - true_centre[0], found.centre[1] - true_centre[1]) < 2.0
+    # getRotationMatrix2D's positive angle turns counter-clockwise on screen (y down)
+    assert abs(np.degrees(found.angle) + 50.0) < 2.0
+    h, w = part.shape
+    true_corners = cv2.transform(
+        np.float32([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]]).reshape(-1, 1, 2), M
+    ).reshape(-1, 2)
+    assert np.abs(found.corners - true_corners).max() < 5.0  # 8-dof fit, extrapolated
+
+
+def test_orb_reports_not_found_on_an_empty_belt():
+    rng = np.random.default_rng(32)
+    belt = np.clip(cv2.GaussianBlur(rng.normal(90, 12, (240, 320)), (0, 0), 1.5), 0, 255)
+    assert orb_match(_bracket(), belt.astype(np.uint8)) is None
+
+
+def test_orb_errors_name_the_argument():
+    with pytest.raises(VisionError, match="scene"):
+        orb_match(_bracket(), np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(VisionError, match="ratio"):
+        orb_match(_bracket(), _bracket(), ratio=1.5)

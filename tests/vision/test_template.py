@@ -1,0 +1,107 @@
+import cv2
+import numpy as np
+import pytest
+
+from cell.errors import VisionError
+from cell.vision.template import (
+    best_match,
+    match_ncc,
+    match_sad,
+    match_ssd,
+    two_template_decision,
+)
+
+PX_PER_MM = 1.65
+
+
+def _scene(seed=20):
+    """Belt of flat 32 px tiles at many grey levels, a textured 24x24 patch (mean 150,
+    std about 9) at (x=100, y=60)."""
+    rng = np.random.default_rng(seed)
+    tiles = rng.permutation(np.linspace(20, 235, 35)).reshape(5, 7).astype(np.float32)
+    img = cv2.resize(tiles, (224, 160), interpolation=cv2.INTER_NEAREST)
+    patch = cv2.GaussianBlur(rng.normal(150, 40, (24, 24)).astype(np.float32), (0, 0), 1.2)
+    img[60:84, 100:124] = patch
+    img += rng.normal(0, 1.0, img.shape).astype(np.float32)
+    return img, img[60:84, 100:124].copy()
+
+
+def test_sad_matches_brute_force_and_equals_ssd_on_binary_images():
+    rng = np.random.default_rng(21)
+    img = rng.integers(0, 256, (17, 19)).astype(np.uint8)
+    tpl = img[4:9, 6:12].copy()
+    ref = np.array([[np.abs(img[y:y + 5, x:x + 6].astype(int) - tpl).sum()
+                     for x in range(19 - 6 + 1)] for y in range(17 - 5 + 1)])
+    np.testing.assert_array_equal(match_sad(img, tpl), ref)
+    b = (rng.random((30, 40)) < 0.5).astype(np.uint8)
+    np.testing.assert_allclose(match_sad(b, b[3:10, 5:14]), match_ssd(b, b[3:10, 5:14]), atol=1e-3)
+
+
+def test_all_three_find_an_unchanged_patch():
+    img, tpl = _scene()
+    for method, fn in (("ssd", match_ssd), ("sad", match_sad), ("ncc", match_ncc)):
+        m = best_match(fn(img, tpl), tpl.shape, method=method)
+        assert (m.x, m.y) == (100, 60), method
+
+
+@pytest.mark.parametrize(("a", "b"), [(0.5, -40), (0.5, 40), (1.5, -40), (1.5, 40), (0.7, 25)])
+def test_ncc_peak_stays_put_under_gain_and_offset_while_ssd_sad_move(a, b):
+    img, tpl = _scene()
+    changed = a * img + b  # the scene under other lighting; the template is not re-cut
+    ncc = best_match(match_ncc(changed, tpl), tpl.shape, method="ncc")
+    ssd = best_match(match_ssd(changed, tpl), tpl.shape, method="ssd")
+    sad = best_match(match_sad(changed, tpl), tpl.shape, method="sad")
+    assert (ncc.x, ncc.y) == (100, 60) and ncc.score > 0.99
+    assert (ssd.x, ssd.y) != (100, 60)
+    assert (sad.x, sad.y) != (100, 60)
+
+
+def _part_image(kind, *, size=(70, 70), yaw_deg=0.0, seed=0, centre=None, belt=85):
+    """Top view of a grey part on the belt, anti-aliased, with sensor noise."""
+    rng = np.random.default_rng(seed)
+    ss = 4
+    h, w = size
+    big = np.full((h * ss, w * ss), float(belt), np.float32)
+    cx, cy = centre if centre is not None else ((w - 1) / 2, (h - 1) / 2)
+    c = (round((cx + 0.5) * ss), round((cy + 0.5) * ss))
+    mm = PX_PER_MM * ss
+    if kind == "washer":
+        cv2.circle(big, c, round(10 * mm), 190, -1)
+        cv2.circle(big, c, round(5.25 * mm), belt, -1)
+    elif kind == "hex_nut":
+        ang = np.radians(yaw_deg) + np.arange(6) * np.pi / 3
+        r = 8.5 / np.cos(np.pi / 6) * mm
+        pts = np.stack([c[0] + r * np.cos(ang), c[1] + r * np.sin(ang)], 1)
+        cv2.fillConvexPoly(big, np.rint(pts).astype(np.int32), 190)
+        cv2.circle(big, c, round(5 * mm), belt, -1)
+    img = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA) + rng.normal(0, 3, (h, w))
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_two_template_decision_tells_washer_from_hex_nut():
+    tpl_a = _part_image("washer", size=(40, 40), seed=1)
+    tpl_b = _part_image("hex_nut", size=(40, 40), seed=2)
+    rng = np.random.default_rng(22)
+    for i in range(6):
+        centre = tuple(rng.uniform(25, 75, 2))
+        washer = _part_image("washer", size=(100, 100), centre=centre, seed=10 + i)
+        nut = _part_image("hex_nut", size=(100, 100), centre=centre, seed=20 + i,
+                          yaw_deg=rng.uniform(-4, 4))
+        empty = _part_image("none", size=(100, 100), seed=30 + i)
+        assert two_template_decision(washer, tpl_a, tpl_b, threshold=0.7).label == "A"
+        assert two_template_decision(nut, tpl_a, tpl_b, threshold=0.7).label == "B"
+        assert two_template_decision(empty, tpl_a, tpl_b, threshold=0.7).label == "none"
+    d = two_template_decision(washer, tpl_a, tpl_b)
+    assert abs(d.match_a.centre[0] - centre[0]) <= 1 and abs(d.match_a.centre[1] - centre[1]) <= 1
+
+
+def test_template_errors_name_the_argument():
+    img = np.zeros((10, 10), np.uint8)
+    with pytest.raises(VisionError, match="template.*larger"):
+        match_ssd(img, np.zeros((12, 3), np.uint8))
+    with pytest.raises(VisionError, match="template.*flat"):
+        match_ncc(img, np.zeros((3, 3), np.uint8))
+    with pytest.raises(VisionError, match="image"):
+        match_sad(np.zeros((10, 10), np.int16), np.zeros((3, 3), np.uint8))
+    with pytest.raises(VisionError, match="method.*valid"):
+        best_match(np.zeros((3, 3), np.float32), (2, 2), method="mad")

@@ -1,0 +1,89 @@
+"""Pick and place in the simulated cell: verification, limits, errors, bins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cell.errors import IKError, MotionError
+from cell.robot.pick import PartTarget, PickPlace
+from cell.scenario import scenario_from_dict
+from cell.sim import World, layout
+from cell.sim.arm import HOME
+
+
+@pytest.fixture(scope="module")
+def cell():
+    scenario = scenario_from_dict({"parts": {"count": 4, "kinds": ["hex_nut"],
+                                             "materials": ["steel"]},
+                                   "conveyor": {"speed": 0.0}})
+    world = World.build(scenario)
+    log: list = []
+    skill = PickPlace(world.model, world.data, world.step, scenario.robot, log=log)
+    world.step(50)
+    yield world, skill, log
+    world.close()
+
+
+def _in_bin(pos, name):
+    c = layout.BINS[name]
+    return np.all(np.abs(pos[:2] - c[:2]) < np.array(layout.BIN_SIZE[:2]) / 2)
+
+
+def test_a_pick_at_an_empty_spot_is_detected_not_assumed(cell):
+    world, skill, _ = cell
+    empty = PartTarget("hex_nut", 0.02, layout.CONVEYOR_Y + 0.03, 0.4, "metal")
+    with pytest.raises(MotionError, match="vacuum switch reads 0.00 N.*no part held"):
+        skill.run(empty)
+    assert not skill.cup.is_on
+    assert np.abs(skill.driver.joint_positions()[:5] - HOME[:5]).max() < 0.01  # back home
+
+
+def test_a_part_goes_to_its_bin_within_the_joint_limits(cell):
+    world, skill, log = cell
+    part = world.place_next_part(-0.01, layout.CONVEYOR_Y - 0.02, 1.0)
+    world.step(50)
+    pos, _ = world.part_pose(part.id)  # ground truth as the input: scoring the robot
+    log.clear()
+    result = skill.run(PartTarget(part.kind, pos[0], pos[1], world.part_yaw(part.id), "metal"))
+    world.step(150)
+    assert _in_bin(world.part_pose(part.id)[0], "metal")
+    assert 1.0 <= result.cycle_time / result.bound_time < 1.25
+    # no commanded joint ever exceeds the speed or the acceleration limit
+    vmax, amax = np.deg2rad(180.0), np.deg2rad(600.0)
+    qd = np.array([s[2] for s in log])
+    qdd = np.array([s[3] for s in log])
+    q = np.array([s[1] for s in log])
+    dt = world.model.opt.timestep
+    assert np.abs(qd).max() <= vmax * (1 + 1e-9)
+    assert np.abs(qdd).max() <= amax * (1 + 1e-9)
+    assert np.abs(np.diff(q, axis=0)).max() <= vmax * dt * (1 + 1e-9)
+    assert np.abs(qd).max() > 0.9 * vmax  # and the motion does use them
+
+
+def test_vacuum_switch_reads_a_held_part_and_an_open_cup(cell):
+    world, skill, _ = cell
+    part = world.place_next_part(0.0, layout.CONVEYOR_Y, 0.0)
+    world.step(50)
+    pos, _ = world.part_pose(part.id)
+    wp = skill.plan(PartTarget(part.kind, pos[0], pos[1], world.part_yaw(part.id), "metal"))
+    skill.driver.move(wp["above"])
+    skill.driver.move(wp["grasp"])
+    skill.cup.on()
+    skill.driver.wait(0.1)
+    skill.driver.move(wp["above"])
+    assert skill.cup.sealed()
+    assert world.part_pose(part.id)[0][2] > pos[2] + 0.03  # it really came up with the cup
+    skill.cup.off()
+    skill.driver.wait(0.3)
+    assert skill.cup.reading() < 0.01 and not skill.cup.sealed()
+    assert world.part_pose(part.id)[0][2] < pos[2] + 0.002  # fell back onto the belt
+    skill.driver.move(wp["home"])
+
+
+def test_unknown_kind_or_bin_is_an_error_listing_the_valid_ones(cell):
+    _, skill, _ = cell
+    with pytest.raises(IKError, match="valid: washer, hex_nut"):
+        skill.run(PartTarget("gear", 0.0, 0.45, 0.0, "metal"))
+    with pytest.raises(IKError, match="valid: metal, plastic, reject"):
+        skill.run(PartTarget("washer", 0.0, 0.45, 0.0, "glass"))

@@ -30,7 +30,7 @@ def truth_rows(world: World) -> list[dict]:
         pos, quat = world.part_pose(part.id)
         rows.append({
             "id": part.id, "kind": part.kind, "material": part.material, "colour": part.colour,
-            "defect": "none", "position": pos.tolist(), "quat": quat.tolist(),
+            "defect": part.defect, "position": pos.tolist(), "quat": quat.tolist(),
             "yaw": world.part_yaw(part.id),
         })
     return rows

@@ -41,7 +41,8 @@ _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every
 @dataclass(frozen=True)
 class PartInfo:
     """One part of the run: ``id`` (1-based, as in segmentation), kind, finish (a
-    catalogue material name), material class (``metal``/``plastic``), colour, body id."""
+    catalogue material name), material class (``metal``/``plastic``), colour, body id,
+    and its defect (``none``: defects come with the inspection job)."""
 
     id: int
     kind: str
@@ -49,6 +50,7 @@ class PartInfo:
     material: str
     colour: str
     body_id: int
+    defect: str = "none"
 
 
 def _draw_sequence(scenario: Scenario, rng: np.random.Generator) -> list[tuple[str, str]]:

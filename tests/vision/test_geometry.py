@@ -1,0 +1,133 @@
+import cv2
+import numpy as np
+import pytest
+
+from cell.camera import CameraModel
+from cell.errors import VisionError
+from cell.vision.geometry import (
+    apply_homography,
+    birdseye_view,
+    homography_from_points,
+    pixel_to_table,
+    solve_planar_pnp,
+    table_homography,
+)
+
+
+def _overhead(dist=(-0.12, 0.05, 0.001, -0.0008, 0.0), tilt_deg=6.0):
+    """A camera 0.40 m above a belt at z = 0.08, tilted a little, with lens distortion."""
+    f = 0.5 * 480 / np.tan(np.radians(40) / 2)
+    K = np.array([[f, 0, 319.5], [0, f, 239.5], [0, 0, 1]])
+    a = np.radians(tilt_deg)
+    R_flip = np.diag([1.0, -1.0, -1.0])  # camera z down onto the table, image y along -y
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    T = np.eye(4)
+    T[:3, :3] = R_flip @ Rx
+    T[:3, 3] = [0.0, 0.45, 0.48]
+    return CameraModel(640, 480, K, np.array(dist), T)
+
+
+def test_homography_from_four_points_recovers_a_known_one():
+    H_true = np.array([[1.2, 0.1, 30.0], [-0.05, 0.9, 12.0], [1e-4, -2e-4, 1.0]])
+    src = np.array([[0, 0], [100, 0], [100, 80], [0, 80]], float)
+    H = homography_from_points(src, apply_homography(H_true, src))
+    np.testing.assert_allclose(H, H_true, rtol=1e-5, atol=1e-7)
+    probe = np.array([[37.0, 51.0], [-20.0, 130.0]])
+    np.testing.assert_allclose(apply_homography(H, probe), apply_homography(H_true, probe),
+                               atol=1e-3)
+
+
+def test_homography_rejects_collinear_points():
+    with pytest.raises(VisionError, match="src.*collinear"):
+        homography_from_points([[0, 0], [1, 1], [2, 2], [0, 5]], [[0, 0], [1, 0], [1, 1], [0, 1]])
+    with pytest.raises(VisionError, match="dst"):
+        homography_from_points(np.zeros((4, 2)) + np.eye(4, 2), np.zeros((3, 2)))
+
+
+def test_pixel_to_table_round_trip_through_project_is_sub_mm():
+    cam = _overhead()
+    rng = np.random.default_rng(40)
+    P = np.c_[rng.uniform(-0.12, 0.12, 200), 0.45 + rng.uniform(-0.08, 0.08, 200),
+              np.full(200, 0.08)]
+    px = cam.project(P)
+    assert np.all((px > 0) & (px < [640, 480]))
+    back = pixel_to_table(cam, px, z=0.08)
+    err = np.linalg.norm(back - P, axis=1)
+    assert err.max() < 1e-6  # metres: far below a millimetre
+    # ignoring the distortion would cost millimetres at the image edge
+    naive = CameraModel(640, 480, cam.K, np.zeros(5), cam.T_world_camera)
+    assert np.linalg.norm(pixel_to_table(naive, px, z=0.08) - P, axis=1).max() > 1e-3
+
+
+def test_pixel_to_table_with_the_simulators_camera():
+    sim = pytest.importorskip("cell.sim")
+    from cell.scenario import scenario_from_dict
+
+    world = sim.World.build(scenario_from_dict({"seed": 1}), arm=False)
+    cam = world.camera_model("overhead")
+    P = np.array([[0.0, 0.45, 0.08], [0.05, 0.40, 0.08], [-0.07, 0.50, 0.08]])
+    np.testing.assert_allclose(pixel_to_table(cam, cam.project(P), z=0.08), P, atol=1e-7)
+
+
+def test_table_homography_agrees_with_projection_without_distortion():
+    cam = _overhead(dist=(0, 0, 0, 0, 0))
+    P = np.array([[0.01, 0.42], [-0.05, 0.47], [0.09, 0.5]])
+    H = table_homography(cam, z=0.08)
+    np.testing.assert_allclose(apply_homography(H, P), cam.project(np.c_[P, [0.08] * 3]),
+                               atol=1e-8)
+
+
+def test_birdseye_view_straightens_a_checkerboard_on_the_table():
+    cam = _overhead()
+    sq = 0.01  # 10 mm squares on the belt plane z = 0.08
+
+    def pattern(xy):
+        return (((np.floor(xy[:, 0] / sq) + np.floor(xy[:, 1] / sq)) % 2) * 200 + 30)
+
+    # the camera's image of the board: every pixel's ray meets the plane
+    v, u = np.mgrid[0:480, 0:640]
+    world = pixel_to_table(cam, np.c_[u.ravel(), v.ravel()].astype(float), z=0.08)
+    image = pattern(world).reshape(480, 640).astype(np.uint8)
+    res = 0.0005
+    top = birdseye_view(image, cam, x_range=(-0.06, 0.06), y_range=(0.40, 0.50), resolution=res,
+                        z=0.08)
+    assert top.shape == (200, 240)
+    j, i = np.meshgrid(np.arange(240), np.arange(200))
+    xy = np.c_[-0.06 + (j.ravel() + 0.5) * res, 0.50 - (i.ravel() + 0.5) * res]
+    expected = pattern(xy)
+    agree = np.abs(top.astype(int).ravel() - expected) < 50
+    frac = (xy / sq) % 1.0
+    inner = np.all((frac > 0.15) & (frac < 0.85), axis=1)  # >= 1.5 mm from a square edge
+    assert agree[inner].all()  # every square lands where the map says
+    assert agree.mean() > 0.9  # the rest differ only in the blur across edges
+
+
+def test_planar_pnp_recovers_the_target_pose():
+    cam = _overhead()
+    gx, gy = np.meshgrid(np.arange(8), np.arange(5))
+    obj = np.c_[gx.ravel(), gy.ravel()] * 0.025
+    rvec = np.array([0.2, -0.15, 0.6])
+    tvec = np.array([-0.05, 0.02, 0.45])
+    img, _ = cv2.projectPoints(np.c_[obj, np.zeros(len(obj))], rvec, tvec, cam.K, cam.dist)
+    img = img.reshape(-1, 2) + np.random.default_rng(41).normal(0, 0.1, (len(obj), 2))
+    pose = solve_planar_pnp(obj, img, cam.K, cam.dist)
+    R_true = cv2.Rodrigues(rvec)[0]
+    dR = pose.T_camera_target[:3, :3] @ R_true.T
+    angle = np.degrees(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
+    assert angle < 0.2
+    assert np.linalg.norm(pose.T_camera_target[:3, 3] - tvec) < 1e-3
+    assert pose.rms_px < 0.2
+
+
+def test_geometry_errors_name_the_argument():
+    cam = _overhead()
+    with pytest.raises(VisionError, match="pixels"):
+        pixel_to_table(cam, np.zeros((3, 3)))
+    with pytest.raises(VisionError, match="camera"):
+        pixel_to_table("cam", np.zeros((1, 2)))
+    up = CameraModel(640, 480, cam.K, np.zeros(5), np.eye(4))  # looks sideways: z forward = +z
+    with pytest.raises(VisionError, match="does not see the plane"):
+        pixel_to_table(up, [[319.5, 239.5]], z=-1.0)
+    with pytest.raises(VisionError, match="resolution"):
+        birdseye_view(np.zeros((480, 640), np.uint8), cam, x_range=(0, 1), y_range=(0, 1),
+                      resolution=0)

@@ -1,0 +1,78 @@
+import numpy as np
+import pytest
+
+from cell.errors import VisionError
+from cell.vision.occupancy import bfs_path, occupancy_grid
+
+
+def _diagonal_gap_grid():
+    """A wall across a 10 x 10 grid whose two halves meet only at a corner."""
+    g = np.zeros((10, 10), bool)
+    g[5, 0:5] = True
+    g[4, 5:10] = True
+    return g
+
+
+def _valid(path, grid, connectivity):
+    for (r0, c0), (r1, c1) in zip(path, path[1:], strict=False):
+        dr, dc = abs(r1 - r0), abs(c1 - c0)
+        assert max(dr, dc) == 1 and (connectivity == 8 or dr + dc == 1)
+        assert not grid[r1, c1]
+    return True
+
+
+def test_diagonal_gap_passable_under_8_blocked_under_4():
+    grid = _diagonal_gap_grid()
+    start, goal = (0, 0), (9, 9)
+    assert bfs_path(grid, start, goal, connectivity=4) is None
+    path = bfs_path(grid, start, goal, connectivity=8)
+    assert path is not None and path[0] == start and path[-1] == goal
+    assert _valid(path, grid, 8)
+    assert any({a, b} == {(4, 4), (5, 5)} for a, b in zip(path, path[1:], strict=False))
+
+
+def test_bfs_is_shortest_on_an_open_grid():
+    grid = np.zeros((12, 15), bool)
+    p4 = bfs_path(grid, (1, 2), (9, 13), connectivity=4)
+    p8 = bfs_path(grid, (1, 2), (9, 13), connectivity=8)
+    assert len(p4) - 1 == 8 + 11  # Manhattan distance
+    assert len(p8) - 1 == max(8, 11)  # Chebyshev distance
+    assert _valid(p4, grid, 4) and _valid(p8, grid, 8)
+    assert bfs_path(grid, (3, 3), (3, 3)) == [(3, 3)]
+
+
+def test_occupancy_grid_from_an_image_keeps_the_diagonal_gap():
+    """Objects (bright boxes) placed on the table so they touch only at a corner."""
+    rng = np.random.default_rng(50)
+    img = rng.normal(60, 6, (200, 200))
+    cell = 20
+    for r, c in np.argwhere(_diagonal_gap_grid()):
+        img[r * cell + 2 : (r + 1) * cell - 2, c * cell + 2 : (c + 1) * cell - 2] = 200
+    img[100:102, 100:102] = 255  # a speck of glare: below min_area, not an object
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    occ = occupancy_grid(img, cell_px=cell, min_area=20)
+    np.testing.assert_array_equal(occ.grid, _diagonal_gap_grid())
+    assert occ.objects.count == 10 and 60 < occ.threshold < 200
+    assert bfs_path(occ.grid, (0, 0), (9, 9), connectivity=4) is None
+    assert bfs_path(occ.grid, (0, 0), (9, 9), connectivity=8) is not None
+
+
+def test_partial_cells_and_fill_fraction():
+    img = np.zeros((25, 25), np.uint8)
+    img[20:25, 20:25] = 255  # fills the partial corner cell completely
+    img[0:3, 0:3] = 255  # 9 of 100 pixels of the first cell
+    assert occupancy_grid(img, cell_px=10, threshold=128, min_area=1).grid.sum() == 2
+    grid = occupancy_grid(img, cell_px=10, threshold=128, min_area=1, fill=0.5).grid
+    assert grid.tolist() == [[False, False, False], [False, False, False], [False, False, True]]
+
+
+def test_occupancy_errors_name_the_argument():
+    grid = _diagonal_gap_grid()
+    with pytest.raises(VisionError, match="start.*occupied"):
+        bfs_path(grid, (5, 0), (0, 0))
+    with pytest.raises(VisionError, match="goal.*outside"):
+        bfs_path(grid, (0, 0), (10, 0))
+    with pytest.raises(VisionError, match="connectivity"):
+        bfs_path(grid, (0, 0), (1, 1), connectivity=6)
+    with pytest.raises(VisionError, match="cell_px"):
+        occupancy_grid(np.zeros((5, 5), np.uint8), cell_px=0)

@@ -28,6 +28,7 @@ from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, setting
 from cell.errors import ScenarioError
 from cell.robot.settings import RobotSettings
+from cell.vision.settings import VisionSettings
 
 __all__ = [
     "CameraSettings",
@@ -97,6 +98,7 @@ class Scenario:
     camera: CameraSettings = setting(CameraSettings())
     sensor: SensorSettings = setting(SensorSettings())
     robot: RobotSettings = setting(RobotSettings())
+    vision: VisionSettings = setting(VisionSettings())
 
 
 def scenario_from_dict(

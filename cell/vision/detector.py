@@ -1,0 +1,504 @@
+"""``PartDetector``: one RGB frame and its camera model in, a list of ``Detection`` out.
+
+What the detector uses: the image, the camera model (intrinsics, distortion, pose), the
+``VisionSettings`` and the catalogue's nominal part geometry and finishes. It never reads
+the simulator. Its background model is learned from the frame itself: a median filter
+much wider than any part over a 1/8-scale copy estimates the empty belt (and whatever
+else surrounds it) under the frame's own lighting, so lighting gradients, spot lights and
+colour temperature need no calibration image.
+
+Pipeline (each step a textbook technique):
+1. background estimate (median filter) and per-pixel colour difference (largest channel);
+2. noise-adaptive threshold (median + k * MAD of the smoothed difference, with a floor),
+   or fixed / Otsu (``VisionSettings.threshold_method``); opening removes specks;
+3. contours with holes (``cv2.findContours``, two-level hierarchy);
+4. each outline is mapped onto the table plane per candidate kind: a contour point on the
+   side facing away from the camera's nadir is a top edge, the others bottom edges
+   (a prism seen off-axis shows a wall), so the footprint comes out free of perspective;
+5. kind from footprint descriptors (:mod:`cell.vision.kind`); a blob that fits no kind is
+   cut into touching parts by distance-transform cores and nearest-core assignment;
+6. material from grain and albedo (:mod:`cell.vision.material`), yaw per kind, position
+   as the footprint centroid on the table plane.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import cv2
+import numpy as np
+
+from cell.camera import CameraModel
+from cell.catalogue import KINDS
+from cell.errors import VisionError
+from cell.vision._checks import check_colour
+from cell.vision.kind import classify_kind, footprint, footprint_yaw, score_kind
+from cell.vision.material import classify_material, material_features
+from cell.vision.settings import VisionSettings
+
+__all__ = ["Detection", "PartDetector"]
+
+_BG_SCALE = 8  # the background model's downscale factor
+_BG_MEDIAN = 9  # its median aperture at that scale (72 px at full scale)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One part found in a frame.
+
+    ``id`` numbers the detections of one frame (1-based, left to right). ``material`` is
+    ``metal``/``plastic``/``unknown`` and ``kind`` a catalogue kind or ``unknown``, each
+    with a confidence in 0..1. ``centroid`` is the blob's pixel centroid (u, v);
+    ``yaw`` (rad) the part's heading in the world, in [0, 2*pi/symmetry) where
+    ``symmetry`` is the kind's rotational order (0 = continuous, yaw then 0).
+    ``position`` is (x, y) of the footprint centroid on the world table plane (metres),
+    ``None`` when ``partial`` (the part touches the image border); ``size`` is
+    (length, width) of the footprint (metres). ``defect`` is always False for now.
+    """
+
+    id: int
+    material: str
+    material_confidence: float
+    kind: str
+    kind_confidence: float
+    centroid: tuple[float, float]
+    yaw: float
+    symmetry: int
+    position: tuple[float, float] | None
+    size: tuple[float, float]
+    partial: bool
+    defect: bool = False
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict."""
+        out = asdict(self)
+        out["centroid"] = list(self.centroid)
+        out["position"] = None if self.position is None else list(self.position)
+        out["size"] = list(self.size)
+        return out
+
+
+@dataclass
+class _Blob:
+    contour: np.ndarray  # (N, 2) float pixel outline, outward-shifted by half a pixel
+    normals: np.ndarray  # (N, 2) outward unit normals of the part region
+    holes: list[tuple[np.ndarray, np.ndarray]]
+    mask_box: tuple[int, int, int, int]  # x, y, w, h of the bounding box
+    partial: bool
+    rays: np.ndarray | None = None  # cached by _Geometry._prepare
+    away: np.ndarray | None = None
+    splits: np.ndarray | None = None
+
+
+class PartDetector:
+    """Finds, names and locates parts in an RGB frame. See the module docstring."""
+
+    def __init__(self, settings: VisionSettings | None = None) -> None:
+        self.settings = settings if settings is not None else VisionSettings()
+        if not isinstance(self.settings, VisionSettings):
+            raise VisionError(
+                f"argument 'settings': expected VisionSettings, got {type(settings).__name__}"
+            )
+
+    # --- public -----------------------------------------------------------------------
+    def detect(self, image: np.ndarray, camera: CameraModel) -> list[Detection]:
+        """Detections in ``image`` (uint8 RGB, (H, W, 3)) seen by ``camera``."""
+        check_colour("image", image)
+        if not isinstance(camera, CameraModel):
+            raise VisionError(f"argument 'camera': expected CameraModel, got {type(camera).__name__}")
+        h, w = image.shape[:2]
+        if (camera.width, camera.height) != (w, h):
+            raise VisionError(
+                f"argument 'camera': model is {camera.width}x{camera.height}, image is {w}x{h}"
+            )
+        if h < 2 * _BG_SCALE or w < 2 * _BG_SCALE:
+            raise VisionError(f"argument 'image': too small ({w}x{h}), need at least 16x16")
+        img = np.ascontiguousarray(image)
+        bg, backlit = self._background(img)
+        dmax, mask, t = self._foreground(img, bg)
+        geo = _Geometry(camera, self.settings.plane_z)
+        longest = max(k.length for k in KINDS.values())
+        self._max_px = int(2.5 * longest / geo.m_per_px)
+        blobs = self._blobs(mask, dmax, t)
+        found: list[tuple[_Blob, str, float, object]] = []
+        for blob in blobs:
+            found.extend(self._interpret(blob, mask, geo))
+        found.sort(key=lambda f: (f[3].centroid_px[0], f[3].centroid_px[1]))  # type: ignore[attr-defined]
+        out = []
+        for i, (blob, kind, conf, res) in enumerate(found, start=1):
+            material, m_conf = self._material(img, bg, blob, backlit)
+            out.append(_make_detection(i, blob, kind, conf, res, material, m_conf))
+        return out
+
+    # --- background and foreground ------------------------------------------------------
+    def _background(self, img: np.ndarray) -> tuple[np.ndarray, bool]:
+        h, w = img.shape[:2]
+        s = _BG_SCALE
+        small = np.ascontiguousarray(img[s // 2 :: s, s // 2 :: s])
+        bg_small = cv2.medianBlur(small, _BG_MEDIAN)
+        level = float(np.median(bg_small.max(axis=2)))
+        spread = float(np.median(bg_small.max(axis=2) - bg_small.min(axis=2)))
+        backlit = level >= self.settings.backlight_level and spread < 40
+        bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
+        return bg, backlit
+
+    def _foreground(
+        self, img: np.ndarray, bg: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """(difference image, foreground mask, threshold) for an RGB frame and its background.
+
+        The difference is the largest channel difference (grey levels). It is box-filtered
+        (``smooth``) only when the frame is noisy (MAD above 2 grey levels), so clean frames
+        keep sharp edges.
+        """
+        st = self.settings
+        h, w = img.shape[:2]
+        diff = cv2.absdiff(img, bg).reshape(h, w * 3)
+        dmax = np.ascontiguousarray(cv2.dilate(diff, np.ones((1, 3), np.uint8))[:, 1::3])
+        sample = dmax[4::8, 4::8].astype(np.float32)
+        mad = float(np.median(np.abs(sample - np.median(sample)))) * 1.4826
+        if st.smooth and mad > 2.0:
+            dmax = cv2.blur(dmax, (st.smooth, st.smooth))
+            sample = dmax[4::8, 4::8].astype(np.float32)
+            mad = float(np.median(np.abs(sample - np.median(sample)))) * 1.4826
+        if st.threshold_method == "fixed":
+            t = float(st.threshold_value)
+        elif st.threshold_method == "otsu":
+            otsu = cv2.threshold(dmax, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)[0]
+            t = max(float(otsu), float(st.otsu_floor))
+        else:  # "auto": noise-adaptive
+            t = max(float(st.threshold_value), float(np.median(sample)) + st.noise_k * max(mad, 0.5))
+        mask = cv2.threshold(dmax, t, 255, cv2.THRESH_BINARY)[1]
+        return dmax, cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)), t
+
+    def _blobs(self, mask: np.ndarray, dmax: np.ndarray | None = None, t: float = 0.0) -> list[_Blob]:
+        """Outer contours with their holes; with ``dmax``, each blob is re-thresholded at
+        half its own contrast (median difference inside it), so its outline sits where
+        the edge is half covered, whatever the part's contrast."""
+        h, w = mask.shape
+        contours, hier = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        if hier is None:
+            return []
+        hier = hier[0]
+        m = self.settings.border_margin
+        blobs = []
+        for i, c in enumerate(contours):
+            if hier[i][3] != -1 or len(c) < 8:
+                continue
+            x, y, bw, bh = cv2.boundingRect(c)
+            if bw * bh < 20 or max(bw, bh) > self._max_px:
+                continue  # a speck, or far longer than any part: a rail, the table edge
+            if dmax is not None:
+                blobs.extend(self._refine(c, contours, hier, i, mask, dmax, t))
+                continue
+            partial = x <= m or y <= m or x + bw >= w - m or y + bh >= h - m
+            blobs.append(_make_blob(c.reshape(-1, 2), contours, hier, i, (0, 0), partial))
+        return blobs
+
+    def _refine(self, c, contours, hier, i, mask, dmax, t) -> list[_Blob]:
+        h, w = mask.shape
+        mgn = self.settings.border_margin
+        x, y, bw, bh = cv2.boundingRect(c)
+        x0, y0 = max(x - 2, 0), max(y - 2, 0)
+        x1, y1 = min(x + bw + 2, w), min(y + bh + 2, h)
+        own = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.drawContours(own, [c.reshape(-1, 2) - [x0, y0]], -1, 255, -1)
+        d = dmax[y0:y1, x0:x1]
+        inside = d[(own > 0) & (mask[y0:y1, x0:x1] > 0)]
+        level = max(t, 0.5 * float(np.median(inside))) if inside.size else t
+        own = cv2.dilate(own, np.ones((3, 3), np.uint8))
+        sub = ((d > level) & (own > 0)).astype(np.uint8) * 255
+        sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        if hr is None:
+            return []
+        hr = hr[0]
+        out = []
+        for j, cj in enumerate(cs):
+            if hr[j][3] != -1 or len(cj) < 8:
+                continue
+            bx, by, bbw, bbh = cv2.boundingRect(cj)
+            bx, by = bx + x0, by + y0
+            partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
+            out.append(_make_blob(cj.reshape(-1, 2), cs, hr, j, (x0, y0), partial))
+        return out
+
+    # --- kinds ----------------------------------------------------------------------------
+    def _fit(self, blob: _Blob, geo: _Geometry) -> tuple[str, float, float, _Fit]:
+        """Best kind for a blob: classify on a mid-height footprint, refine the top two."""
+        mid = geo.footprint(blob, 0.0025, 0.0025)
+        if mid is None:
+            return "unknown", 0.0, math.inf, _Fit(None, 0.0025)
+        rough = {k: score_kind(mid, k) for k in KINDS}
+        order = sorted(rough, key=rough.get)[:2]
+        if rough[order[1]] > rough[order[0]] + 30.0:
+            order = order[:1]
+        scores, fits = dict(rough), {}
+        for k in order:
+            lo, hi = _edge_heights(k)
+            fp = geo.footprint(blob, lo, hi)
+            if fp is not None:
+                scores[k] = score_kind(fp, k)
+                fits[k] = _Fit(fp, (lo + hi) / 2)
+        kind, conf, fit = classify_kind(scores)
+        if kind == "unknown" or conf < self.settings.min_kind_confidence:
+            return "unknown", conf, fit, _Fit(mid, 0.0025)
+        return kind, conf, fit, fits.get(kind, _Fit(mid, 0.0025))
+
+    def _interpret(self, blob: _Blob, mask: np.ndarray, geo: _Geometry) -> list:
+        st = self.settings
+        area_mm2 = geo.area_mm2(blob)
+        if area_mm2 < st.min_area_mm2:
+            return []
+        if blob.partial:
+            res = _Fit(geo.footprint(blob, 0.0025, 0.0025), 0.0025, centroid_px=_px_centroid(blob))
+            longest = max(k.length for k in KINDS.values())
+            if res.fp is None or area_mm2 > st.max_area_mm2 or res.fp.length > 1.3 * longest:
+                return []  # not a part: a rail, a belt edge, the table beyond
+            return [(blob, "unknown", 0.0, res)]
+        kind, conf, fit, res = self._fit(blob, geo)
+        if kind != "unknown" and fit < 9.0:
+            res.centroid_px = _px_centroid(blob)
+            return [(blob, kind, conf, res)]
+        if st.split_touching and area_mm2 > 1.5 * st.min_area_mm2:
+            pieces = self._split(blob, mask, geo)
+            if pieces:
+                return pieces
+        if kind == "unknown" or area_mm2 > st.max_area_mm2:
+            return []
+        res.centroid_px = _px_centroid(blob)
+        return [(blob, kind, conf, res)]
+
+    def _split(self, blob: _Blob, mask: np.ndarray, geo: _Geometry) -> list:
+        x, y, bw, bh = blob.mask_box
+        roi = np.zeros((bh + 2, bw + 2), np.uint8)
+        outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32) - [x - 1, y - 1]
+        cv2.drawContours(roi, [outline], -1, 255, -1)
+        for hole, hn in blob.holes:
+            hp = np.round(hole - 0.5 * hn).astype(np.int32) - [x - 1, y - 1]
+            cv2.drawContours(roi, [hp], -1, 0, -1)
+        dist = cv2.distanceTransform(roi, cv2.DIST_L2, 3)
+        best, best_cost = [], math.inf
+        for level in (0.35, 0.5, 0.65, 0.8):
+            cores = (dist > level * float(dist.max())).astype(np.uint8)
+            n, _ = cv2.connectedComponents(cores)
+            if n < 3 or n > 5:
+                continue
+            _, labels = cv2.distanceTransformWithLabels(
+                1 - cores, cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_CCOMP
+            )
+            pieces, cost = [], 0.0
+            for lab in np.unique(labels[cores > 0]):
+                piece = ((labels == lab) & (roi > 0)).astype(np.uint8) * 255
+                sub = self._blobs_offset(piece, (x - 1, y - 1))
+                if len(sub) != 1:
+                    cost = math.inf
+                    break
+                kind, conf, fit, res = self._fit(sub[0], geo)
+                if kind == "unknown":
+                    cost = math.inf
+                    break
+                res.centroid_px = _px_centroid(sub[0])
+                pieces.append((sub[0], kind, conf, res))
+                cost += fit
+            if pieces and cost / len(pieces) < best_cost:
+                best, best_cost = pieces, cost / len(pieces)
+        return best if best_cost < 9.0 else []
+
+    def _blobs_offset(self, piece: np.ndarray, offset: tuple[int, int]) -> list[_Blob]:
+        contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        if hier is None:
+            return []
+        hier = hier[0]
+        return [
+            _make_blob(c.reshape(-1, 2), contours, hier, i, offset, False)
+            for i, c in enumerate(contours)
+            if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30
+        ]
+
+    # --- material -------------------------------------------------------------------------
+    def _material(
+        self, img: np.ndarray, bg: np.ndarray, blob: _Blob, backlit: bool
+    ) -> tuple[str, float]:
+        st = self.settings
+        if backlit:
+            return "unknown", 0.0
+        x, y, bw, bh = blob.mask_box
+        h, w = img.shape[:2]
+        x0, y0 = max(x - 1, 0), max(y - 1, 0)
+        x1, y1 = min(x + bw + 1, w), min(y + bh + 1, h)
+        roi = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        origin = np.array([x0, y0])
+        cv2.drawContours(roi, [np.round(blob.contour - blob.normals).astype(np.int32) - origin],
+                         -1, 255, -1)
+        for hole, hn in blob.holes:
+            cv2.drawContours(roi, [np.round(hole - hn).astype(np.int32) - origin], -1, 0, -1)
+        sel = cv2.erode(roi, np.ones((3, 3), np.uint8)) > 0
+        if int(sel.sum()) < 8:
+            return "unknown", 0.0
+        cu, cv = int(np.clip(x + bw // 2, 0, w - 1)), int(np.clip(y + bh // 2, 0, h - 1))
+        feats = material_features(img[y0:y1, x0:x1], sel, bg[cv, cu], belt_rgb=st.belt_rgb)
+        return classify_material(
+            feats,
+            backlit=False,
+            grain_metal=st.grain_metal,
+            grain_z_min=st.grain_z_min,
+            albedo_sigma=st.albedo_sigma,
+        )
+
+
+@dataclass
+class _Fit:
+    fp: object  # Footprint | None
+    z_mid: float  # height of the footprint's centre above the belt (m)
+    centroid_px: tuple[float, float] = (0.0, 0.0)
+
+
+def _make_blob(pts, contours, hier, i, offset, partial) -> _Blob:
+    off = np.array(offset)
+    pts = pts + off
+    outline, normals = _outline(pts, hole=False)
+    holes = []
+    j = hier[i][2]
+    while j != -1:
+        hc = contours[j].reshape(-1, 2) + off
+        if len(hc) >= 6:
+            holes.append(_outline(hc, hole=True))
+        j = hier[j][0]
+    bx, by, bw, bh = cv2.boundingRect(pts.astype(np.int32))
+    return _Blob(outline, normals, holes, (bx, by, bw, bh), partial)
+
+
+def _edge_heights(kind: str) -> tuple[float, float]:
+    """Heights above the belt (m) of a kind's silhouette edges: facing the nadir, away."""
+    h = KINDS[kind].height
+    if kind == "bolt":  # a lying cylinder: its silhouette is near its axis height
+        return 0.5 * h - 0.0015, 0.5 * h + 0.0015
+    return 0.0, h
+
+
+def _outline(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A pixel contour shifted half a pixel outward, with the part region's outward normals.
+
+    Contours from ``findContours`` run through the centres of edge pixels; the region's
+    edge lies half a pixel further out. For a hole contour "outward" points into the hole.
+    """
+    p = pts.astype(np.float64)
+    n_pts = len(p)
+    idx = np.arange(n_pts)
+    t = p[(idx + 2) % n_pts] - p[idx - 2]
+    n = np.stack([t[:, 1], -t[:, 0]], axis=1)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-9)
+    if cv2.contourArea(pts.astype(np.float32), oriented=True) < 0:
+        n = -n
+    if hole:
+        n = -n
+    return p + 0.5 * n, n
+
+
+def _px_centroid(blob: _Blob) -> tuple[float, float]:
+    m = cv2.moments(blob.contour.astype(np.float32))
+    a = m["m00"]
+    cx, cy = m["m10"], m["m01"]
+    for hole, _ in blob.holes:
+        mh = cv2.moments(hole.astype(np.float32))
+        a, cx, cy = a - mh["m00"], cx - mh["m10"], cy - mh["m01"]
+    if abs(a) < 1e-9:
+        c = blob.contour.mean(axis=0)
+        return float(c[0]), float(c[1])
+    return float(cx / a), float(cy / a)
+
+
+class _Geometry:
+    """Pixel rays of one camera, intersected with horizontal planes (world z up)."""
+
+    def __init__(self, camera: CameraModel, plane_z: float) -> None:
+        self.camera = camera
+        self.plane_z = plane_z
+        self.R = camera.T_world_camera[:3, :3]
+        self.o = camera.T_world_camera[:3, 3]
+        nad = camera.K @ (self.R.T @ np.array([0.0, 0.0, -1.0]))
+        self.nadir = nad[:2] / nad[2] if nad[2] > 1e-9 else None
+        centre = self.to_plane(
+            np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]]),
+            np.full(2, plane_z),
+        )
+        self.m_per_px = float(np.linalg.norm(centre[1] - centre[0]))
+
+    def rays(self, pts: np.ndarray) -> np.ndarray:
+        """World directions (N, 3) of the rays through pixels (N, 2), lens distortion removed."""
+        K, dist = self.camera.K, self.camera.dist
+        if np.any(dist):
+            norm = cv2.undistortPoints(pts.reshape(-1, 1, 2).astype(np.float64), K, dist)
+            xy = norm.reshape(-1, 2)
+        else:
+            y = (pts[:, 1] - K[1, 2]) / K[1, 1]
+            x = (pts[:, 0] - K[0, 2] - K[0, 1] * y) / K[0, 0]
+            xy = np.stack([x, y], axis=1)
+        d = np.column_stack([xy, np.ones(len(xy))])
+        return d @ self.R.T
+
+    def to_plane(self, pts: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """World (x, y) (N, 2) where the rays through pixels ``pts`` meet heights ``z`` (m)."""
+        return self._meet(self.rays(pts), z)
+
+    def _meet(self, d: np.ndarray, z: np.ndarray | float) -> np.ndarray:
+        dz = np.where(np.abs(d[:, 2]) < 1e-12, -1e-12, d[:, 2])
+        s = (z - self.o[2]) / dz
+        return self.o[:2] + s[:, None] * d[:, :2]
+
+    def _prepare(self, blob: _Blob) -> None:
+        """Rays through the blob's outline and holes, and which points face away from the
+        nadir (top edges), computed once per blob (cached on it)."""
+        if blob.rays is not None:
+            return
+        pts = [blob.contour] + [h for h, _ in blob.holes]
+        nrm = [blob.normals] + [n for _, n in blob.holes]
+        allp = np.concatenate(pts)
+        alln = np.concatenate(nrm)
+        blob.rays = self.rays(allp)
+        if self.nadir is None:
+            blob.away = np.zeros(len(allp), bool)
+        else:
+            blob.away = np.einsum("ij,ij->i", alln, allp - self.nadir) > 0
+        blob.splits = np.cumsum([len(p) for p in pts])[:-1]
+
+    def footprint(self, blob: _Blob, lo: float, hi: float):
+        """The blob's footprint on the table plane for silhouette edges at heights lo/hi."""
+        self._prepare(blob)
+        z = self.plane_z + (np.where(blob.away, hi, lo) if lo != hi else lo)
+        xy = self._meet(blob.rays, z)
+        parts = np.split(xy, blob.splits)
+        try:
+            return footprint(parts[0], parts[1:])
+        except VisionError:
+            return None
+
+    def area_mm2(self, blob: _Blob) -> float:
+        a = abs(cv2.contourArea(blob.contour.astype(np.float32)))
+        a -= sum(abs(cv2.contourArea(h.astype(np.float32))) for h, _ in blob.holes)
+        return a * (self.m_per_px * 1e3) ** 2
+
+
+def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
+    fp = res.fp
+    sym = KINDS[kind].symmetry if kind in KINDS else 0
+    yaw = footprint_yaw(fp, kind) if (fp is not None and kind in KINDS) else 0.0
+    position = None
+    if not blob.partial and fp is not None:
+        position = (float(fp.centroid[0]), float(fp.centroid[1]))
+    size = (float(fp.length), float(fp.width)) if fp is not None else (0.0, 0.0)
+    return Detection(
+        id=i,
+        material=material,
+        material_confidence=round(float(m_conf), 4),
+        kind=kind,
+        kind_confidence=round(float(conf), 4),
+        centroid=(float(res.centroid_px[0]), float(res.centroid_px[1])),
+        yaw=float(yaw),
+        symmetry=sym,
+        position=position,
+        size=size,
+        partial=blob.partial,
+    )

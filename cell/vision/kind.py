@@ -1,0 +1,244 @@
+"""Part kind from shape: descriptors of a footprint on the table plane, scored per kind.
+
+A blob's outline (and its holes) is mapped from pixels onto the table plane, so every
+descriptor is in metres and free of the perspective scale. For each catalogue kind the
+detector maps the outline with that kind's height (see ``cell.vision.detector``), and
+:func:`score_kind` compares the resulting footprint with the kind's nominal footprint from
+:mod:`cell.catalogue`: length and width of the minimum-area rectangle, the hole fraction
+and the solidity (area over convex-hull area). :func:`classify_kind` turns the scores of
+all kinds into a label and a confidence. :func:`footprint_yaw` measures the yaw of a
+footprint modulo the kind's rotational symmetry.
+
+References: minimum-area rectangle, convex hull and polygon moments as in OpenCV
+(``cv2.minAreaRect``, ``cv2.convexHull``, ``cv2.moments``); shape descriptors after
+Gonzalez & Woods, *Digital Image Processing*, ch. 11; n-fold orientation from the n-th
+circular harmonic of the outline's chord directions (Mardia & Jupp, 2000).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from cell.catalogue import KINDS, PartKind
+from cell.errors import VisionError
+
+__all__ = [
+    "Footprint",
+    "classify_kind",
+    "footprint",
+    "footprint_yaw",
+    "nominal_descriptors",
+    "score_kind",
+]
+
+_SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
+_SIGMA_HOLE = 0.09  # tolerance on the hole fraction
+_SIGMA_SOLIDITY = 0.07
+_MAX_FIT = 16.0  # a summed squared z-score above this fits no kind
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """A part's outline on the table plane (metres, world x, y).
+
+    ``outline`` (N, 2) and ``holes`` (each (M, 2)) are closed polygons; ``area`` is the
+    net area (outline minus holes, m^2); ``centroid`` (2,) its centroid; ``length`` and
+    ``width`` the sides of the minimum-area rectangle (m, length >= width) and
+    ``rect_angle`` the direction of its long side (rad); ``hole_fraction`` the holes'
+    area over the outline's area; ``solidity`` the outline's area over its hull's area.
+    """
+
+    outline: np.ndarray
+    holes: tuple[np.ndarray, ...]
+    area: float
+    centroid: np.ndarray
+    length: float
+    width: float
+    rect_angle: float
+    hole_fraction: float
+    solidity: float
+
+
+def _polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
+    """Area and centroid of a simple polygon (Green's theorem, via ``cv2.moments``).
+
+    Computed in millimetres around the first vertex, so float32 keeps its precision.
+    """
+    origin = poly[0]
+    m = cv2.moments(((poly - origin) * 1e3).astype(np.float32))
+    a = m["m00"]
+    if abs(a) < 1e-9:
+        return 0.0, poly.mean(axis=0)
+    return abs(a) * 1e-6, origin + np.array([m["m10"] / a, m["m01"] / a]) * 1e-3
+
+
+def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarray] = ()) -> Footprint:
+    """Descriptors of a polygon with holes on the table plane.
+
+    Parameters
+    ----------
+    outline : (N, 2) float array, the outer boundary in metres (N >= 3).
+    holes : polygons (M, 2) in metres inside ``outline``.
+    """
+    outline = np.asarray(outline, dtype=np.float64)
+    if outline.ndim != 2 or outline.shape[1] != 2 or outline.shape[0] < 3:
+        raise VisionError(f"footprint: outline must be (N>=3, 2), got shape {outline.shape}")
+    area_out, c_out = _polygon_area_centroid(outline)
+    moment = area_out * c_out
+    area = area_out
+    hole_list = []
+    for hole in holes:
+        hole = np.asarray(hole, dtype=np.float64)
+        if hole.shape[0] < 3:
+            continue
+        a_h, c_h = _polygon_area_centroid(hole)
+        area -= a_h
+        moment = moment - a_h * c_h
+        hole_list.append(hole)
+    centroid = moment / area if area > 1e-12 else c_out
+    pts = ((outline - outline[0]) * 1e3).astype(np.float32)  # mm, local: float32 is enough
+    (_, _), (w, h), ang = cv2.minAreaRect(pts)
+    ang = math.radians(ang)
+    if w < h:
+        w, h, ang = h, w, ang + math.pi / 2
+    hull = cv2.convexHull(pts)
+    hull_area = cv2.contourArea(hull) * 1e-6
+    return Footprint(
+        outline=outline,
+        holes=tuple(hole_list),
+        area=float(max(area, 0.0)),
+        centroid=centroid,
+        length=float(w) * 1e-3,
+        width=float(h) * 1e-3,
+        rect_angle=float(math.atan2(math.sin(ang), math.cos(ang))),
+        hole_fraction=float(1.0 - area / area_out) if area_out > 0 else 0.0,
+        solidity=float(area_out / hull_area) if hull_area > 0 else 0.0,
+    )
+
+
+def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
+    """(length, width, hole fraction, solidity) of a kind's nominal footprint from above."""
+    if kind.name == "hex_nut":
+        outer = 2 * math.sqrt(3) * (kind.width / 2) ** 2
+    elif kind.name == "square_nut":
+        outer = kind.length * kind.width
+    elif kind.name in ("washer", "disc"):
+        outer = math.pi * (kind.length / 2) ** 2
+    else:
+        outer = kind.length * kind.width
+    hole = math.pi * (kind.hole / 2) ** 2
+    solidity = 1.0
+    if kind.name == "bolt":
+        # Seen from above: a 6 mm shank, 40 mm long, and a head 10 mm across flats and 4 mm
+        # thick (cell.sim.parts); the rectangle is as wide as the head, the hull tapers.
+        head, shank, head_len = 0.010, 0.006, 0.004
+        area = (kind.length - head_len) * shank + head_len * head
+        hull = head_len * head + (kind.length - head_len) * (head + shank) / 2
+        return kind.length, head, 0.0, area / hull
+    if kind.name == "l_bracket":
+        leg = 0.012  # legs 12 mm wide; the hull cuts the inner corner's triangle off
+        area = kind.length * leg + (kind.width - leg) * leg
+        hull = kind.length * kind.width - 0.5 * (kind.length - leg) * (kind.width - leg)
+        solidity = area / hull
+    return kind.length, kind.width, hole / outer if outer else 0.0, solidity
+
+
+def score_kind(fp: Footprint, kind: str) -> float:
+    """Summed squared z-score of a footprint against a kind's nominal descriptors (0 = exact).
+
+    Length and width are compared in metres with a fixed tolerance; hole fraction and
+    solidity as ratios. Lower is better; above about 16 the footprint fits no kind.
+    """
+    if kind not in KINDS:
+        raise VisionError(f"score_kind: unknown kind {kind!r}; valid: {', '.join(KINDS)}")
+    length, width, hole, solidity = _NOMINAL[kind]
+    return (
+        ((fp.length - length) / _SIGMA_SIZE) ** 2
+        + ((fp.width - width) / _SIGMA_SIZE) ** 2
+        + ((fp.hole_fraction - hole) / _SIGMA_HOLE) ** 2
+        + ((fp.solidity - solidity) / _SIGMA_SOLIDITY) ** 2
+    )
+
+
+_NOMINAL = {name: nominal_descriptors(k) for name, k in KINDS.items()}
+
+
+def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:
+    """Label, confidence and fit from per-kind scores (as returned by :func:`score_kind`).
+
+    The confidence is the best kind's share of the likelihoods ``exp(-score / 2)``; the
+    fit is the best score. When the best score exceeds the fit limit, the label is
+    ``"unknown"`` with confidence 0.
+    """
+    if not scores:
+        raise VisionError("classify_kind: scores must name at least one kind")
+    names = list(scores)
+    s = np.array([scores[n] for n in names], dtype=np.float64)
+    best = int(np.argmin(s))
+    if s[best] > _MAX_FIT:
+        return "unknown", 0.0, float(s[best])
+    lik = np.exp(-(s - s[best]) / 2)
+    return names[best], float(lik[best] / lik.sum()), float(s[best])
+
+
+def _flat_angle(outline: np.ndarray, n: int, step: int = 5) -> float:
+    """Direction (rad) of the flats' normals of an n-fold polygonal outline, mod 2*pi/n.
+
+    The n-th circular harmonic of the outline's chord directions (chords of ``step``
+    points, weighted by length): the flats dominate it, and a chord's direction does not
+    depend on how far the outline lies from the centre, so a dilated or slightly
+    perspective-stretched outline gives the same angle (directional statistics, Mardia &
+    Jupp, *Directional Statistics*, 2000, ch. 3: mean direction of n-fold axial data).
+    """
+    d = np.roll(outline, -step, axis=0) - outline
+    length = np.hypot(d[:, 0], d[:, 1])
+    psi = np.arctan2(d[:, 1], d[:, 0])
+    return float(np.angle(np.sum(length * np.exp(1j * n * psi))) / n + math.pi / 2)
+
+
+def _second_moment_angle(outline: np.ndarray) -> float:
+    m = cv2.moments(((outline - outline[0]) * 1e3).astype(np.float32))
+    return 0.5 * math.atan2(2 * m["mu11"], m["mu20"] - m["mu02"])
+
+
+def _l_bracket_yaw(fp: Footprint) -> float:
+    """Yaw of an L bracket: direction of its long leg, seen from the outer corner."""
+    a = fp.rect_angle
+    u = np.array([math.cos(a), math.sin(a)])  # long side
+    s = (fp.outline - fp.centroid) @ u
+    # The centroid sits near the outer corner, so the outline reaches farther towards the
+    # long leg's tip: that way is the long leg's direction. Canonical pose (yaw 0): outer
+    # corner at -x, -y, long leg along +x (cell.sim.parts).
+    su = 1.0 if s.max() > -s.min() else -1.0
+    long_dir = su * u
+    return float(math.atan2(long_dir[1], long_dir[0]))
+
+
+def footprint_yaw(fp: Footprint, kind: str) -> float:
+    """Yaw of a footprint (rad) for a kind, in [0, 2*pi/symmetry) (0 for continuous symmetry).
+
+    Hex nut: the flats' direction from the 6th harmonic of the outline's chord directions
+    (yaw 0: a corner on +x); square nut: the 4th (yaw 0: flats facing +x); bolt: the long
+    axis from second moments (mod pi); L bracket: the long leg's direction seen from the outer corner.
+    """
+    if kind not in KINDS:
+        return 0.0
+    n = KINDS[kind].symmetry
+    if n == 0:
+        return 0.0
+    if kind == "hex_nut":
+        yaw = _flat_angle(fp.outline, 6) - math.pi / 6  # yaw 0: corners at 0, 60, ... deg
+    elif kind == "square_nut":
+        yaw = _flat_angle(fp.outline, 4)  # yaw 0: flats facing +x
+    elif kind == "bolt":
+        yaw = _second_moment_angle(fp.outline)
+    elif kind == "l_bracket":
+        yaw = _l_bracket_yaw(fp)
+    else:
+        yaw = fp.rect_angle
+    period = 2 * math.pi / n
+    return float(yaw % period)

@@ -1,0 +1,90 @@
+"""``VisionSettings``: the ``[vision]`` section of a scenario, read by ``PartDetector``.
+
+Every field has a default, a range or a set of choices and a one-line doc, so a scenario
+file, ``--set vision.key=value`` and ``cell detect --set key=value`` are all validated the
+same way (see :mod:`cell.config`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cell.config import setting
+from cell.errors import ScenarioError
+
+__all__ = ["THRESHOLD_METHODS", "VisionSettings"]
+
+THRESHOLD_METHODS = ("auto", "fixed", "otsu")
+
+
+@dataclass(frozen=True)
+class VisionSettings:
+    """How ``PartDetector`` separates parts from the belt and names them.
+
+    Foreground is the per-pixel colour distance from the background estimate (largest
+    channel difference, grey levels), thresholded by ``threshold_method``.
+    """
+
+    threshold_method: str = setting(
+        "auto",
+        choices=THRESHOLD_METHODS,
+        doc="foreground threshold on the belt-difference image: auto (noise-adaptive: "
+        "median + noise_k * MAD, at least threshold_value), fixed value, or Otsu",
+    )
+    threshold_value: int = setting(
+        12, lo=1, hi=254,
+        doc="fixed threshold, and the floor of auto (grey levels of colour difference)",
+    )
+    noise_k: float = setting(
+        6.0, lo=1.0, hi=50.0, doc="auto threshold: noise multiples above the median difference"
+    )
+    otsu_floor: int = setting(
+        20, lo=0, hi=254, doc="lowest threshold Otsu may pick (grey levels); guards empty frames"
+    )
+    smooth: int = setting(
+        3, lo=0, hi=15, doc="box filter aperture on the difference image (px, odd; 0 = off)"
+    )
+    plane_z: float = setting(
+        0.08, lo=-10.0, hi=10.0, doc="world height of the surface the parts lie on (m)"
+    )
+    belt_rgb: tuple[float, ...] = setting(
+        (0.22, 0.30, 0.42), lo=0.0, hi=1.0, length=3,
+        doc="belt reflectance per channel (0..1), the white-balance reference",
+    )
+    min_area_mm2: float = setting(
+        40.0, lo=0.0, hi=1e4, doc="smallest blob kept, as a table-plane area (mm^2)"
+    )
+    max_area_mm2: float = setting(
+        2000.0, lo=1.0, hi=1e5, doc="largest blob that may be one or two parts (mm^2)"
+    )
+    split_touching: bool = setting(
+        True, doc="cut blobs that fit no single kind into touching parts"
+    )
+    border_margin: int = setting(
+        1, lo=0, hi=50, doc="a blob within this many pixels of the image edge is partial (px)"
+    )
+    backlight_level: int = setting(
+        200, lo=0, hi=255,
+        doc="median background brightness above which the frame is taken as back-lit",
+    )
+    grain_metal: float = setting(
+        0.05, lo=0.0, hi=1.0,
+        doc="relative grain amplitude from which a part counts as grainy (brightness fraction)",
+    )
+    grain_z_min: float = setting(
+        3.0, lo=0.0, hi=100.0, doc="grain evidence needed to count (standard errors)"
+    )
+    albedo_sigma: float = setting(
+        0.08, lo=0.001, hi=1.0, doc="tolerance of the albedo match to catalogue finishes (0..1)"
+    )
+    min_kind_confidence: float = setting(
+        0.5, lo=0.0, hi=1.0, doc="below this kind confidence the kind is reported 'unknown'"
+    )
+
+    def _validate(self, where: str) -> None:
+        if self.smooth and self.smooth % 2 == 0:
+            raise ScenarioError(f"{where}: key 'vision.smooth' must be odd or 0, got {self.smooth}")
+        if self.min_area_mm2 >= self.max_area_mm2:
+            raise ScenarioError(
+                f"{where}: key 'vision.min_area_mm2' must be below 'vision.max_area_mm2'"
+            )

@@ -1,0 +1,27 @@
+"""`cell bench vision --quick`: runs every preset and reports every promised figure."""
+
+from __future__ import annotations
+
+import json
+
+from cell.benchmarks.vision import SEED_BASE, main, run
+from cell.catalogue import LIGHTING_PRESETS
+
+
+def test_quick_run_reports_each_preset():
+    report = run(scenes=1)
+    assert report["seed_base"] == SEED_BASE >= 1000  # never a test seed
+    assert set(report["presets"]) == set(LIGHTING_PRESETS)
+    for preset, r in report["presets"].items():
+        assert r["parts"] > 0, preset
+        for key in ("material_accuracy", "kind_accuracy", "position_p50_mm", "position_p95_mm",
+                    "yaw_p95_deg", "false", "missed", "latency_ms", "latency_over_render"):
+            assert key in r
+        assert r["latency_ms"] > 0 and r["render_ms"] > 0
+        assert 0.0 <= r["material_accuracy"] <= 1.0
+    assert report["presets"]["back"]["material_wrong"] == 0
+
+
+def test_cli_json(capsys):
+    assert main(["--scenes", "1", "--json"]) == 0
+    assert "presets" in json.loads(capsys.readouterr().out)

@@ -1,0 +1,151 @@
+"""PartDetector on rendered frames (test seeds < 1000) and on degenerate frames."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cell.catalogue import KINDS
+from cell.errors import VisionError
+from cell.sim import layout
+from cell.vision.detector import Detection, PartDetector
+from cell.vision.settings import VisionSettings
+
+P = layout.PICK_ZONE
+
+
+def _scene(factory, seed, placements, kinds, materials, lighting="front"):
+    """A world whose parts (kinds x materials, in order) are placed at (dx, dy, yaw)."""
+    w = factory(seed=seed, lighting=lighting,
+                parts={"count": len(placements), "kinds": kinds, "materials": materials})
+    for dx, dy, yaw in placements:
+        w.place_next_part(P[0] + dx, P[1] + dy, yaw)
+    w.step(100)
+    return w
+
+
+def _match(world, dets, pid):
+    pos, _ = world.part_pose(pid)
+    best = min(dets, key=lambda d: math.inf if d.position is None else
+               math.hypot(d.position[0] - pos[0], d.position[1] - pos[1]))
+    return best, math.hypot(best.position[0] - pos[0], best.position[1] - pos[1])
+
+
+@pytest.fixture(scope="module")
+def spread(module_world_factory):
+    """One part of each kind (seed 21 draws all six), apart, in steel and grey plastic."""
+    placements = [(-0.12, -0.03, 0.3), (-0.06, 0.03, 1.1), (0.0, -0.03, 2.0),
+                  (0.06, 0.03, 0.7), (0.12, -0.03, 2.6), (0.10, 0.035, 4.0)]
+    return _scene(module_world_factory, 21, placements, list(KINDS), ["steel", "plastic_grey"])
+
+
+@pytest.mark.parametrize("lighting", ["front", "glare"])
+def test_every_kind_found_named_and_located(spread, lighting):
+    spread.set_lighting(lighting)
+    frame = spread.render(depth=False, seg=False)
+    dets = PartDetector().detect(frame.rgb, frame.camera)
+    assert len(dets) == len(spread.parts)
+    for part in spread.parts:
+        d, err = _match(spread, dets, part.id)
+        assert err < 1e-3, f"{part.kind}: position error {err * 1e3:.2f} mm"
+        assert d.kind == part.kind
+        assert d.material == part.material, f"{part.finish} read as {d.material}"
+        assert d.symmetry == KINDS[part.kind].symmetry
+        assert not d.partial and not d.defect
+        sym = KINDS[part.kind].symmetry
+        if sym:
+            period = 2 * math.pi / sym
+            e = (d.yaw - spread.part_yaw(part.id)) % period
+            assert min(e, period - e) < math.radians(3), f"{part.kind} yaw"
+        length = KINDS[part.kind].length
+        assert abs(d.size[0] - length) < 2.5e-3
+
+
+def test_back_light_gives_unknown_material_never_wrong(spread):
+    spread.set_lighting("back")
+    frame = spread.render(depth=False, seg=False)
+    dets = PartDetector().detect(frame.rgb, frame.camera)
+    assert len(dets) == len(spread.parts)
+    assert all(d.material == "unknown" for d in dets)
+    assert sorted(d.kind for d in dets) == sorted(p.kind for p in spread.parts)
+
+
+def test_touching_parts_come_out_as_two(world_factory):
+    w = _scene(world_factory, 12, [(-0.02, 0.0, 0.0), (0.0, 0.0, 0.5)], ["washer"],
+               ["plastic_red", "aluminium"])
+    seg = w.render(depth=False).seg
+    grown = np.zeros_like(seg, dtype=bool)
+    grown[:, 1:] |= seg[:, :-1] == 1
+    assert (grown & (seg == 2)).any(), "the scene must really have touching washers"
+    frame = w.render(depth=False, seg=False)
+    dets = PartDetector().detect(frame.rgb, frame.camera)
+    assert len(dets) == 2
+    for part in w.parts:
+        d, err = _match(w, dets, part.id)
+        assert err < 1e-3 and d.kind == "washer" and d.material == part.material
+
+
+def test_part_at_image_border_is_partial_without_position(world_factory):
+    w = _scene(world_factory, 13, [(0.19, 0.0, 0.0), (0.0, 0.0, 0.0)], ["disc"], ["plastic_blue"])
+    frame = w.render(depth=False, seg=False)
+    dets = PartDetector().detect(frame.rgb, frame.camera)
+    partial = [d for d in dets if d.partial]
+    whole = [d for d in dets if not d.partial]
+    assert len(partial) == 1 and partial[0].position is None
+    assert len(whole) == 1 and whole[0].kind == "disc"
+
+
+@pytest.fixture(scope="module")
+def empty_frame(module_world_factory):
+    w = module_world_factory(seed=14, parts={"count": 1})
+    return w.render(depth=False, seg=False)
+
+
+@pytest.mark.parametrize("kind", ["empty", "black", "saturated", "noise", "salt_pepper"])
+def test_degenerate_frames_give_no_detections(empty_frame, kind):
+    rng = np.random.default_rng(0)
+    img = empty_frame.rgb.copy()
+    if kind == "black":
+        img[:] = 0
+    elif kind == "saturated":
+        img[:] = 255
+    elif kind == "noise":
+        img = rng.integers(0, 256, img.shape, dtype=np.uint8)
+    elif kind == "salt_pepper":
+        hit = rng.random(img.shape[:2]) < 0.05
+        img[hit] = rng.choice([0, 255], size=(int(hit.sum()), 1)).astype(np.uint8)
+    assert PartDetector().detect(img, empty_frame.camera) == []
+
+
+def test_bad_arguments_name_the_culprit(empty_frame):
+    det = PartDetector()
+    with pytest.raises(VisionError, match="image"):
+        det.detect(empty_frame.rgb[..., 0], empty_frame.camera)
+    with pytest.raises(VisionError, match="image"):
+        det.detect(empty_frame.rgb.astype(np.float32), empty_frame.camera)
+    with pytest.raises(VisionError, match="camera"):
+        det.detect(empty_frame.rgb, "camera.json")
+    with pytest.raises(VisionError, match="camera"):
+        det.detect(empty_frame.rgb[:240, :320].copy(), empty_frame.camera)
+    with pytest.raises(VisionError, match="settings"):
+        PartDetector({"threshold_value": 3})
+
+
+def test_fixed_and_otsu_thresholds_also_work(spread):
+    spread.set_lighting("front")
+    frame = spread.render(depth=False, seg=False)
+    for method in ("fixed", "otsu"):
+        settings = VisionSettings(threshold_method=method, threshold_value=30)
+        dets = PartDetector(settings).detect(frame.rgb, frame.camera)
+        assert sorted(d.kind for d in dets) == sorted(p.kind for p in spread.parts), method
+
+
+def test_detection_to_dict_is_json_ready(spread):
+    frame = spread.render(depth=False, seg=False)
+    d = PartDetector().detect(frame.rgb, frame.camera)[0]
+    assert isinstance(d, Detection)
+    out = d.to_dict()
+    assert set(out) >= {"id", "material", "kind", "centroid", "yaw", "position", "size", "partial"}
+    assert isinstance(out["centroid"], list)

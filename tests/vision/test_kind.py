@@ -1,0 +1,105 @@
+"""Kind from footprint descriptors, and yaw modulo symmetry, on exact catalogue outlines."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cell.catalogue import KINDS
+from cell.errors import VisionError
+from cell.vision.kind import classify_kind, footprint, footprint_yaw, score_kind
+
+
+def _ring(shape: str, apothem: float, n: int = 96) -> np.ndarray:
+    t = np.arange(n) * 2 * math.pi / n
+    if shape == "circle":
+        r = np.full(n, apothem)
+    else:
+        sides = 6 if shape == "hex" else 4
+        off = math.pi / sides if shape == "hex" else 0.0
+        sector = 2 * math.pi / sides
+        r = apothem / np.cos(np.mod(t - off + sector / 2, sector) - sector / 2)
+    return np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+
+
+def _l_bracket() -> np.ndarray:
+    """The sim's L (cell.sim.parts): outer corner at -x, -y, long leg along +x, centred."""
+    pts = np.array([[0, 0], [40, 0], [40, 12], [12, 12], [12, 30], [0, 30]], float) * 1e-3
+    c = np.array([(480 * 20 + 216 * 6) / 696, (480 * 6 + 216 * 21) / 696]) * 1e-3
+    return pts - c
+
+
+def _bolt() -> np.ndarray:
+    return np.array([[-22, -5], [-18, -5], [-18, -3], [22, -3], [22, 3], [-18, 3], [-18, 5],
+                     [-22, 5]], float) * 1e-3
+
+
+OUTLINES = {
+    "washer": (_ring("circle", 0.010), [_ring("circle", 0.00525)]),
+    "hex_nut": (_ring("hex", 0.0085), [_ring("circle", 0.005)]),
+    "square_nut": (_ring("square", 0.0065), [_ring("circle", 0.004)]),
+    "bolt": (_bolt(), []),
+    "l_bracket": (_l_bracket(), []),
+    "disc": (_ring("circle", 0.015), []),
+}
+
+
+def _turn(poly: np.ndarray, yaw: float, at=(0.3, 0.45)) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return poly @ np.array([[c, s], [-s, c]]) + np.array(at)
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+@pytest.mark.parametrize("yaw", [0.0, 0.4, 2.5])
+def test_each_catalogue_outline_is_its_kind(kind, yaw):
+    outline, holes = OUTLINES[kind]
+    fp = footprint(_turn(outline, yaw), [_turn(h, yaw) for h in holes])
+    label, conf, fit = classify_kind({k: score_kind(fp, k) for k in KINDS})
+    assert label == kind and conf > 0.9 and fit < 4
+
+
+def test_descriptors_of_a_washer():
+    outline, holes = OUTLINES["washer"]
+    fp = footprint(outline, holes)
+    assert fp.length == pytest.approx(0.020, abs=2e-4)
+    assert fp.hole_fraction == pytest.approx((10.5 / 20) ** 2, abs=0.01)
+    assert fp.solidity == pytest.approx(1.0, abs=0.01)
+    np.testing.assert_allclose(fp.centroid, [0, 0], atol=1e-6)
+
+
+def test_l_bracket_centroid_and_solidity():
+    fp = footprint(_turn(_l_bracket(), 1.0))
+    np.testing.assert_allclose(fp.centroid, [0.3, 0.45], atol=1e-6)
+    assert fp.solidity == pytest.approx(696 / (1200 - 0.5 * 28 * 18), abs=0.01)
+
+
+@pytest.mark.parametrize("kind", ["hex_nut", "square_nut", "bolt", "l_bracket"])
+@pytest.mark.parametrize("yaw", [0.1, 1.3, 2.9, 4.4, 5.9])
+def test_yaw_modulo_symmetry(kind, yaw):
+    outline, holes = OUTLINES[kind]
+    fp = footprint(_turn(outline, yaw), [_turn(h, yaw) for h in holes])
+    period = 2 * math.pi / KINDS[kind].symmetry
+    got = footprint_yaw(fp, kind)
+    assert 0 <= got < period
+    e = (got - yaw) % period
+    assert min(e, period - e) < math.radians(0.5)
+
+
+def test_continuous_symmetry_has_yaw_zero():
+    outline, holes = OUTLINES["disc"]
+    assert footprint_yaw(footprint(outline, holes), "disc") == 0.0
+
+
+def test_a_shape_fitting_nothing_is_unknown():
+    blob = _ring("circle", 0.05)  # 100 mm: no such part
+    fp = footprint(blob)
+    assert classify_kind({k: score_kind(fp, k) for k in KINDS})[0] == "unknown"
+
+
+def test_bad_input():
+    with pytest.raises(VisionError, match="outline"):
+        footprint(np.zeros((2, 2)))
+    with pytest.raises(VisionError, match="kind"):
+        score_kind(footprint(_ring("circle", 0.01)), "gear")

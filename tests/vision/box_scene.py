@@ -138,3 +138,55 @@ def corner_vertices(cam: CameraModel, *, yaw=DEFAULT_YAW, max_angle_deg=150.0) -
         if best < max_angle_deg:
             out.append(px[v])
     return np.array(out)
+
+
+def render_part(kind, finish, lighting, *, yaw, seed=2, x=0.0):
+    """Render one part at rest under the overhead camera (cell.sim): returns the frame
+    and the world (for ground truth used in scoring). Imports cell.sim lazily."""
+    from cell.scenario import scenario_from_dict
+    from cell.sim import World, layout
+
+    scenario = scenario_from_dict(
+        {"seed": seed, "lighting": lighting,
+         "parts": {"count": 1, "kinds": [kind], "materials": [finish]}}
+    )
+    world = World.build(scenario, arm=False)
+    part = world.place_next_part(x, layout.CONVEYOR_Y, yaw)
+    world.step(150)
+    frame = world.render("overhead", depth=False, seg=True)
+    return frame, world, part
+
+
+def bracket_outline_vertices(world, part) -> np.ndarray:
+    """GROUND TRUTH for scoring: world points (N, 3) of the outline vertices of the top
+    face of a part built from boxes (the L bracket), read from the simulator's geoms.
+
+    In the part frame the boxes are axis-aligned; a candidate (any x edge, any y edge)
+    is an outline vertex when 1 (convex) or 3 (concave) of the four points around it
+    lie inside the union of the boxes."""
+    import mujoco
+
+    m, d = world.model, world.data
+    body = part.body_id
+    R, p = d.xmat[body].reshape(3, 3), d.xpos[body]
+    rects = []
+    for g in range(m.ngeom):
+        if m.geom_bodyid[g] != body or m.geom_group[g] != 1:
+            continue
+        if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
+            continue
+        c, s = R.T @ (d.geom_xpos[g] - p), m.geom_size[g]
+        rects.append((c[0] - s[0], c[0] + s[0], c[1] - s[1], c[1] + s[1], c[2] + s[2]))
+
+    def inside(x, y):
+        return any(a <= x <= b and lo <= y <= hi for a, b, lo, hi, _ in rects)
+
+    xs = np.unique(np.round([v for r in rects for v in r[:2]], 7))
+    ys = np.unique(np.round([v for r in rects for v in r[2:4]], 7))
+    eps, out = 1e-5, []
+    for x in xs:
+        for y in ys:
+            n = sum(inside(x + dx, y + dy) for dx in (-eps, eps) for dy in (-eps, eps))
+            if n in (1, 3):
+                out.append(p + R @ np.array([x, y, max(r[4] for r in rects)]))
+    return np.array(out)

@@ -53,3 +53,23 @@ def test_corner_errors_name_the_argument():
         harris_response(np.zeros((8, 8), np.uint8), block_size=1)
     with pytest.raises(VisionError, match="refine"):
         harris_corners(np.zeros((8, 8), np.uint8), refine="fast")
+
+
+@pytest.mark.parametrize(
+    ("finish", "yaw"),
+    [("plastic_white", 0.4), ("plastic_grey", 1.9), ("plastic_white", 2.8), ("plastic_grey", 0.4)],
+)
+def test_harris_finds_each_vertex_of_a_rendered_l_bracket(finish, yaw):
+    """Renders have no anti-aliasing: the staircase of a slanted edge gives weak
+    responses, which a threshold of 10 % of the peak removes."""
+    pytest.importorskip("cell.sim")
+    frame, world, part = box_scene.render_part("l_bracket", finish, "front", yaw=yaw)
+    truth = frame.camera.project(box_scene.bracket_outline_vertices(world, part))
+    world.close()
+    assert len(truth) == 6  # five convex corners and the inner one
+    grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
+    pts = harris_corners(grey, block_size=5, threshold_rel=0.1, min_distance=4)
+    d = np.hypot(*(pts[:, None, :] - truth[None]).transpose(2, 0, 1))
+    assert len(pts) == 6
+    assert d.min(axis=0).max() < 2.0
+    assert sorted(d.argmin(axis=0).tolist()) == list(range(6))

@@ -67,3 +67,32 @@ def test_edges_errors_name_the_argument():
         canny(np.zeros((8, 8), np.float32), low=1, high=2)
     with pytest.raises(VisionError, match="ksize"):
         sobel(np.zeros((8, 8), np.uint8), ksize=4)
+
+
+def test_canny_thresholds_on_a_rendered_bracket_in_dim_light():
+    """Rendered steel L bracket under the ``dim`` preset (sensor gain noise). The
+    outline's contrast is even all round, so a too-high threshold drops it whole."""
+    pytest.importorskip("cell.sim")
+    frame, world, _ = box_scene.render_part("l_bracket", "steel", "dim", yaw=0.4)
+    world.close()
+    grey = cv2.GaussianBlur(cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY), (0, 0), 1.0)
+    sil = frame.seg > 0  # ground truth, for scoring only
+    outline = sil ^ (cv2.erode(sil.view(np.uint8), np.ones((3, 3), np.uint8)) > 0)
+    dist_to_truth = cv2.distanceTransform((~outline).view(np.uint8), cv2.DIST_L2, 3)
+    belt = np.abs(np.arange(grey.shape[0])[:, None] - grey.shape[0] / 2) < 110  # no rails
+
+    def score(low, high):
+        e = canny(grey, low=low, high=high) & belt
+        dist_to_edge = cv2.distanceTransform((~e).view(np.uint8), cv2.DIST_L2, 3)
+        recall = float((dist_to_edge[outline] <= 2).mean())
+        clutter = float((dist_to_truth[e] > 2).mean()) if e.any() else 0.0
+        return recall, clutter, contour_closure(e)
+
+    lo_recall, lo_clutter, lo = score(5, 10)
+    ok_recall, ok_clutter, ok = score(20, 50)
+    hi_recall, _, hi = score(60, 150)
+    print(f"too low: clutter {lo_clutter:.2f} {lo}\nchosen: {ok_recall:.2f} {ok_clutter:.2f} {ok}"
+          f"\ntoo high: recall {hi_recall:.2f} {hi}")
+    assert lo_clutter > 0.9 and lo.fragments > 100 and lo.closure < 0.5
+    assert ok_recall > 0.98 and ok_clutter < 0.05 and ok.loops == 1 and ok.closure > 0.9
+    assert hi_recall < 0.5 and hi.loops == 0

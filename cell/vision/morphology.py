@@ -24,7 +24,15 @@ from cell.errors import VisionError
 from cell.vision._checks import check_array, check_choice, check_mask, check_odd
 from cell.vision.labeling import label_components
 
-__all__ = ["closing", "dilate", "erode", "opening", "separate_touching", "structuring_element"]
+__all__ = [
+    "closing",
+    "dilate",
+    "erode",
+    "fill_holes",
+    "opening",
+    "separate_touching",
+    "structuring_element",
+]
 
 SHAPES = {"square": cv2.MORPH_RECT, "cross": cv2.MORPH_CROSS, "disk": cv2.MORPH_ELLIPSE}
 
@@ -150,6 +158,9 @@ def separate_touching(
     ratio : 0..1, core level for the distance method.
     max_iterations, size : erosion method: iteration cap and element size (pixels).
 
+    Markers are taken from the mask with its holes filled (a washer's ring has one
+    core, not several), and holes stay background in the result.
+
     Returns int32 (H, W) labels: 0 background, 1..N one per separated part (every
     foreground pixel gets a label).
     """
@@ -159,13 +170,31 @@ def separate_touching(
         raise VisionError(f"argument 'ratio': expected a value in (0, 1), got {ratio!r}")
     if not fg.any():
         return np.zeros(fg.shape, np.int32)
+    # markers come from the parts' filled outlines: a washer's ring would otherwise
+    # erode into several pieces, and its distance peak lies in its hole
+    solid = fill_holes(fg)
     if method == "distance":
-        cores, dist = _markers_by_distance(fg, ratio)
+        cores, dist = _markers_by_distance(solid, ratio)
     else:
-        cores = _markers_by_erosion(fg, max_iterations, size)
-        dist = cv2.distanceTransform(fg.view(np.uint8), cv2.DIST_L2, 5)
+        cores = _markers_by_erosion(solid, max_iterations, size)
+        dist = cv2.distanceTransform(solid.view(np.uint8), cv2.DIST_L2, 5)
     labels = label_components(cores, connectivity=8).labels
-    return _flood(labels, fg, dist, step=0.5)
+    out = _flood(labels, solid, dist, step=0.5)
+    out[~fg] = 0
+    return out
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """``mask`` with every hole filled: background pixels that cannot reach the image
+    border through 4-connected background become foreground. bool (H, W) in and out."""
+    fg = check_mask("mask", mask)
+    h, w = fg.shape
+    bg = np.zeros((h + 2, w + 2), np.uint8)
+    bg[1:-1, 1:-1] = ~fg
+    bg[0, :] = bg[-1, :] = bg[:, 0] = bg[:, -1] = 1
+    ff = np.zeros((h + 4, w + 4), np.uint8)
+    cv2.floodFill(bg, ff, (0, 0), 2, flags=4)
+    return bg[1:-1, 1:-1] != 2
 
 
 def _flood(labels: np.ndarray, fg: np.ndarray, dist: np.ndarray, *, step: float) -> np.ndarray:

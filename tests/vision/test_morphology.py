@@ -3,7 +3,14 @@ import pytest
 
 from cell.errors import VisionError
 from cell.vision.labeling import label_components
-from cell.vision.morphology import closing, dilate, erode, opening, separate_touching
+from cell.vision.morphology import (
+    closing,
+    dilate,
+    erode,
+    fill_holes,
+    opening,
+    separate_touching,
+)
 
 
 def test_syllabus_erosion_leaves_only_the_centre():
@@ -66,3 +73,43 @@ def test_morphology_errors_name_the_argument():
         dilate(np.zeros((4, 4), bool), shape="star")
     with pytest.raises(VisionError, match="method"):
         separate_touching(np.zeros((4, 4), bool), method="magic")
+
+
+def test_fill_holes():
+    ring = np.zeros((30, 30), bool)
+    ring[5:25, 5:25] = True
+    ring[10:15, 10:15] = False  # a hole
+    ring[0:3, 12:18] = False  # nothing: already background at the border
+    filled = fill_holes(ring)
+    assert filled[10:15, 10:15].all() and filled.sum() == 400
+
+
+@pytest.mark.parametrize("method", ["distance", "erosion"])
+def test_touching_rendered_washers_are_separated(method):
+    """Two steel washers placed touching, back-lit: one dark blob, two parts."""
+    sim = pytest.importorskip("cell.sim")
+    import cv2
+
+    from cell.scenario import scenario_from_dict
+    from cell.sim import layout
+    from cell.vision.threshold import threshold_otsu
+
+    scenario = scenario_from_dict(
+        {"seed": 3, "lighting": "back",
+         "parts": {"count": 2, "kinds": ["washer"], "materials": ["steel"]}}
+    )
+    world = sim.World.build(scenario, arm=False)
+    world.place_next_part(-0.01, layout.CONVEYOR_Y, 0.0)
+    world.place_next_part(0.0103, layout.CONVEYOR_Y + 0.003, 0.0)
+    world.step(150)
+    frame = world.render("overhead", depth=False, seg=True)
+    world.close()
+    grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
+    mask = grey <= threshold_otsu(grey)
+    mask &= np.abs(np.arange(mask.shape[0])[:, None] - mask.shape[0] / 2) < 110  # belt only
+    assert label_components(mask, min_area=50).count == 1  # the washers touch
+    labels = separate_touching(mask, method=method)
+    assert labels.max() == 2
+    for lab in (1, 2):  # each region is one washer (segmentation truth, scoring only)
+        ids = frame.seg[labels == lab]
+        assert np.bincount(ids).max() / len(ids) > 0.98

@@ -12,7 +12,8 @@ right bin). Reported per kind and overall:
   the same joint segments (rest-to-rest straight joint lines) under the same speed and
   acceleration limits (the ratio is measured per cycle, in one run);
 - cycles per simulated minute;
-- IK wall time per solve (ms): mean and 95th percentile, and iterations per solve.
+- IK wall time per solve (ms): mean and 95th percentile, and iterations per solve;
+- the peak torque of each joint over its UR5e rating (servos plus feed-forward).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from cell.catalogue import KINDS
 from cell.errors import CellError
 from cell.scenario import scenario_from_dict
 from cell.sim import World, layout
+from cell.sim.arm import EFFORT, JOINT_NAMES
 
 __all__ = ["main", "run_kind"]
 
@@ -50,7 +52,17 @@ def run_kind(kind: str, poses: int, seed: int) -> dict:
     })
     world = World.build(scenario)
     rng = np.random.default_rng([seed, list(KINDS).index(kind)])
-    skill = PickPlace(world.model, world.data, world.step, scenario.robot)
+    effort = np.array(EFFORT)
+    peak = np.zeros(6)
+    dofs = [world.model.joint(f"arm/{n}").dofadr[0] for n in JOINT_NAMES]
+
+    def step(n: int) -> None:  # world.step, also recording the peak joint torques
+        nonlocal peak
+        for _ in range(n):
+            world.step(1)
+            peak = np.maximum(peak, np.abs(world.data.qfrc_actuator[dofs]))
+
+    skill = PickPlace(world.model, world.data, step, scenario.robot)
     world.step(50)  # with the belt stopped the first (upstream) spawn stays at SPAWN_X
     cycles, ratios, ik_ms, ik_its, errors, ok = [], [], [], [], [], 0
     for _ in range(poses):
@@ -84,6 +96,7 @@ def run_kind(kind: str, poses: int, seed: int) -> dict:
         "ik_ms_mean": float(np.mean(ik_ms)) if ik_ms else float("nan"),
         "ik_ms_p95": float(np.percentile(ik_ms, 95)) if ik_ms else float("nan"),
         "ik_iterations_mean": float(np.mean(ik_its)) if ik_its else float("nan"),
+        "peak_torque_over_effort": [round(float(v), 3) for v in peak / effort],
         "errors": errors,
     }
 
@@ -123,6 +136,7 @@ def main(argv: list[str]) -> int:
               f"{r['cycles_per_min']:>8.1f} {r['ratio_to_optimal']:>6.3f} "
               f"{r['ratio_to_optimal_max']:>9.3f} {r['ik_ms_mean']:>6.3f} {r['ik_ms_p95']:>7.3f} "
               f"{r['ik_iterations_mean']:>6.2f}")
+        print(f"{'':<11} peak torque / rating per joint: {r['peak_torque_over_effort']}")
         for e in r["errors"]:
             print(f"    error: {e}")
     o = overall

@@ -70,26 +70,32 @@ class ArmDriver:
         """The time-optimal segment from the last commanded position to ``q_goal``."""
         return plan_segment(self.q_cmd, q_goal, self.vmax, self.amax)
 
-    def move(self, q_goal: np.ndarray, *, what: str = "goal") -> Segment:
-        """Run the segment to ``q_goal`` (rad) and wait until the joints settle there.
+    def move(self, q_goal: np.ndarray, *, what: str = "goal",
+             tolerance: float | None = None) -> Segment:
+        """Run the segment to ``q_goal`` (rad) and wait until every joint is within
+        ``tolerance`` rad of it (default ``settle_tolerance``; a via point may pass a
+        looser one and let the servos finish converging during the next motion).
 
         Raises ``MotionError`` naming ``what`` if they do not settle in
         ``settle_timeout`` (blocked, or a servo saturated)."""
         seg = self.plan(q_goal)
         n = int(np.ceil(seg.duration / self.dt - 1e-9))
-        for k in range(1, n + 1):
+        for k in range(n):  # the set-point of each step is the reference at its start
             self.command(*seg.sample(k * self.dt))
             self._step(1)
         self.command(seg.q1, np.zeros(6), np.zeros(6))
-        self.settle(what=what)
+        self.settle(what=what, tolerance=tolerance)
         return seg
 
-    def settle(self, *, what: str = "goal") -> None:
-        """Hold the last command until every joint is within ``settle_tolerance``."""
+    def settle(self, *, what: str = "goal", tolerance: float | None = None) -> None:
+        """Hold the last command until every joint is within ``tolerance`` rad (default
+        ``settle_tolerance``) and nearly still (< 0.05 rad/s)."""
         s = self.settings
-        for _ in range(int(np.ceil(s.settle_timeout / self.dt))):
+        tol = s.settle_tolerance if tolerance is None else tolerance
+        err = np.inf
+        for _ in range(int(np.ceil(s.settle_timeout / self.dt)) + 1):
             err = np.abs(self.joint_positions() - self.q_cmd).max()
-            if err < s.settle_tolerance and np.abs(self.joint_velocities()).max() < 0.05:
+            if err < tol and np.abs(self.joint_velocities()).max() < 0.05:
                 return
             self._step(1)
         raise MotionError(

@@ -5,7 +5,8 @@ Input is what the vision (or, in the pick benchmark, the simulator's ground trut
 says about a part: its kind, where its frame is on the table (x, y world metres: the
 centroid of its silhouette) and its yaw (rad). The tool points down; its yaw is the
 part's yaw turned by a multiple of the part's symmetry (catalogue ``symmetry``, 0 =
-continuous) chosen so the wrist turns the least. Every motion is a time-optimal
+continuous) and of the cup's ring of eight lip segments, chosen so the wrist turns
+the least. Every motion is a time-optimal
 straight joint segment (``trajectory``) between IK solutions (``ik``).
 ``IKError``/``MotionError`` name the part and the reason; the arm is back at
 ``HOME`` (or as near as it could get) when they are raised, so a caller catches one
@@ -15,6 +16,7 @@ per part and goes on.
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -46,18 +48,25 @@ GRASP_POINTS: dict[str, tuple[float, float, float]] = {
     "l_bracket": (0.0, -0.004655, KINDS["l_bracket"].height),
     "disc": (0.0, 0.0, KINDS["disc"].height),
 }
+TOOL_SYMMETRY = 8  # the cup's lip is a ring of eight: it grasps the same turned by 45 deg
 _HOVER = 0.001  # the cup face stops this far above the part's top; the vacuum pulls
 # the part up against the lip (the lip's reach is 2 mm), so the arm never pushes on it
 _SAMPLES = 12  # configurations checked for collisions along each free-space segment
 
 
-def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float) -> float:
-    """The tool yaw (rad) equivalent to ``part_yaw`` under a ``symmetry``-fold rotation
-    (0 = continuous) nearest to ``natural_yaw``, the yaw reached without turning the
-    wrist."""
-    if symmetry == 0:
+def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float, *,
+                    tool_symmetry: int = TOOL_SYMMETRY) -> float:
+    """The tool yaw (rad) nearest to ``natural_yaw`` (the yaw reached without turning
+    the wrist) among those that give the same grasp of a part at ``part_yaw``.
+
+    The part looks the same turned by multiples of 2 pi / ``symmetry`` (0: continuous)
+    and the tool by multiples of 2 pi / ``tool_symmetry`` (the suction cup's ring of
+    lip segments; 0: a round cup), so the equivalent yaws are ``part_yaw`` plus the
+    multiples of 2 pi / lcm(symmetry, tool_symmetry).
+    """
+    if symmetry == 0 or tool_symmetry == 0:
         return float(natural_yaw)
-    step = 2 * np.pi / symmetry
+    step = 2 * np.pi / math.lcm(symmetry, tool_symmetry)
     k = np.round((natural_yaw - part_yaw) / step)
     return float(part_yaw + k * step)
 
@@ -109,18 +118,30 @@ class PickPlace:
 
     # --- planning -------------------------------------------------------------------
     def _solve(self, key: str, position: np.ndarray, yaw: float | None, q_ref: np.ndarray,
-               what: str) -> np.ndarray:
-        """IK from the last solution for ``key`` (or ``q_ref``), turned towards the target.
-        ``yaw`` None: keep the wrist still."""
+               what: str, *, base: np.ndarray | None = None) -> np.ndarray:
+        """IK seeded from the last solution for ``key`` (else ``base``, else ``q_ref``)
+        turned towards the target. ``yaw`` None: the yaw ``q_ref`` reaches with the wrist
+        still, and the seed's wrist on ``q_ref``'s turn."""
         if yaw is None:
             p_ref, R_ref = self.ik.fk(q_ref)
             d_az = np.arctan2(position[1], position[0]) - np.arctan2(p_ref[1], p_ref[0])
             yaw = tool_yaw(R_ref) + d_az
-        base = self._seeds.get(key, q_ref)
-        seed = self.ik.seed_towards(position, yaw, base)
+        start = self._seeds.get(key, q_ref if base is None else base)
+        seed = self.ik.seed_towards(position, yaw, start)
+        turns = np.round((q_ref[5] - seed[5]) / (2 * np.pi))
+        if abs(seed[5] + 2 * np.pi * turns) <= 2 * np.pi:
+            seed[5] += 2 * np.pi * turns  # same tool yaw, the wrist on q_ref's turn
         q = self.ik.solve(position, yaw, seed, what=what)
         self._seeds[key] = q
         return q
+
+    def _home_near(self, q: np.ndarray) -> np.ndarray:
+        """HOME with the wrist at the 45-degree step (the cup's symmetry) nearest to
+        ``q``'s: the wrist barely turns on the way back and never drifts to its limit."""
+        home = self.home.copy()
+        step = 2 * np.pi / TOOL_SYMMETRY
+        home[5] += step * np.round((q[5] - home[5]) / step)
+        return home
 
     def _check_path(self, q0: np.ndarray, q1: np.ndarray, clearance: float, what: str) -> None:
         for s in np.linspace(0.0, 1.0, _SAMPLES):
@@ -150,11 +171,11 @@ class PickPlace:
         height = KINDS[part.kind].height
         drop = layout.BINS[part.bin] + [0.0, 0.0, layout.BIN_SIZE[2] +
                                         self.settings.release_height + height]
-        q_bin = self._solve(f"bin_{part.bin}", drop, None, q_above, f"bin '{part.bin}' for {name}")
-        # Back to HOME with the wrist left as it is: a suction cup needs no particular
-        # wrist angle at HOME, and not unwinding it saves up to half a second.
-        home = self.home.copy()
-        home[5] = q_bin[5]
+        # seeded from HOME: the base turns to the bin through HOME's side, away from the
+        # conveyor and the overhead camera
+        q_bin = self._solve(f"bin_{part.bin}", drop, None, q_above,
+                            f"bin '{part.bin}' for {name}", base=self.home)
+        home = self._home_near(q_bin)
         self._check_path(start, q_above, 0.005, f"approach to {name}")
         self._check_path(q_above, q_bin, height + 0.005, f"transfer of {name}")
         self._check_path(q_bin, home, 0.005, f"retreat from bin '{part.bin}'")
@@ -186,21 +207,22 @@ class PickPlace:
         wp = self.plan(part)
         name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
         d = self.driver
-        segs = [d.move(wp["above"], what=f"approach above {name}"),
+        via = self.settings.via_tolerance
+        segs = [d.move(wp["above"], what=f"approach above {name}", tolerance=via),
                 d.move(wp["grasp"], what=f"grasp of {name}")]
         self.cup.on()
         self._wait_for(self.cup.sealed, self.settings.grasp_timeout)
-        segs.append(d.move(wp["above"], what=f"lift of {name}"))
+        segs.append(d.move(wp["above"], what=f"lift of {name}", tolerance=via))
         if not self.cup.sealed():  # verify: the vacuum switch must report a held part
             raise self._abort(f"grasp of {name} failed: the vacuum switch reads "
                               f"{self.cup.reading():.2f} N after the lift, no part held")
-        segs.append(d.move(wp["bin"], what=f"transfer of {name}"))
+        segs.append(d.move(wp["bin"], what=f"transfer of {name}", tolerance=via))
         if not self.cup.sealed():
             raise self._abort(f"{name} was lost during the transfer to bin '{part.bin}'")
         self.cup.off()
         self._wait_for(lambda: self.cup.reading() < 0.01, self.settings.release_time + 0.2)
         self.driver.wait(self.settings.release_time)
-        segs.append(d.move(wp["home"], what="home"))
+        segs.append(d.move(wp["home"], what="home", tolerance=via))
         bound = sum(min_time(s.q0, s.q1, d.vmax, d.amax) for s in segs)
         stats = self.ik.stats[n_ik:]
         return PickResult(

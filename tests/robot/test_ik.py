@@ -50,11 +50,15 @@ def test_unreachable_target_is_an_ik_error_naming_it(ik):
         ik.solve(p, 0.0, ik.seed_towards(p, 0.0, HOME))
 
 
-@pytest.mark.parametrize(("part_yaw", "symmetry", "natural", "expected"), [
-    (0.3, 0, 2.0, 2.0),  # washer: any yaw, so the wrist stays
-    (0.3, 6, 2.0, 0.3 + 2 * np.pi / 6 * 2),  # hex nut: the nearest of six
-    (0.1, 2, 3.0, 0.1 + np.pi),  # bolt: either end
-    (0.1, 1, 3.0, 0.1),  # L bracket: one way only
+@pytest.mark.parametrize(("part_yaw", "symmetry", "tool", "natural", "expected"), [
+    (0.3, 0, 8, 2.0, 2.0),  # washer: any yaw, so the wrist stays
+    (0.3, 6, 1, 2.0, 0.3 + 2 * np.pi / 6 * 2),  # hex nut, one-lip cup: nearest of six
+    (0.1, 2, 1, 3.0, 0.1 + np.pi),  # bolt, one-lip cup: either end
+    (0.1, 1, 1, 3.0, 0.1),  # L bracket, one-lip cup: one way only
+    (0.1, 1, 8, 3.0, 0.1 + 4 * np.pi / 4),  # L bracket, 8-lip cup: nearest 45 deg step
+    (0.0, 6, 8, 0.2, np.pi / 12),  # hex nut, 8-lip cup: 15 deg steps
 ])
-def test_tool_yaw_is_the_nearest_symmetric_equivalent(part_yaw, symmetry, natural, expected):
-    assert choose_tool_yaw(part_yaw, symmetry, natural) == pytest.approx(expected)
+def test_tool_yaw_is_the_nearest_symmetric_equivalent(part_yaw, symmetry, tool, natural,
+                                                      expected):
+    got = choose_tool_yaw(part_yaw, symmetry, natural, tool_symmetry=tool)
+    assert got == pytest.approx(expected)

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from cell.errors import VisionError
 from cell.vision._checks import check_choice, check_gray
@@ -60,21 +59,24 @@ def match_ssd(image: np.ndarray, template: np.ndarray) -> np.ndarray:
 def match_sad(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     """Sum of absolute differences ``sum |I(x+u, y+v) - T(u, v)|`` per placement.
 
-    Hand-written (OpenCV has no SAD mode): for each template row, a sliding window
-    view of the matching image rows gives every placement at once, so the Python
-    loop runs ``h`` times and each step is one vectorised numpy expression over
-    (H-h+1) x (W-w+1) x w values.
+    Hand-written (OpenCV has no SAD mode): the Python loop runs over the ``h * w``
+    template pixels, and each step adds ``|I shifted - T(u, v)|`` for every placement
+    at once with in-place numpy operations on (H-h+1) x (W-w+1) float32 buffers
+    (about 9 ms for a 24x24 template on a 208x160 image; cost grows as h*w*H*W).
 
     image, template : uint8 or float32 (H, W), (h, w). Returns float32 (H-h+1, W-w+1),
     grey levels.
     """
     img, tpl = _pair(image, template)
     h, w = tpl.shape
-    rows = img.shape[0] - h + 1
-    out = np.zeros((rows, img.shape[1] - w + 1), np.float32)
+    rows, cols = img.shape[0] - h + 1, img.shape[1] - w + 1
+    out = np.zeros((rows, cols), np.float32)
+    tmp = np.empty_like(out)
     for dy in range(h):
-        windows = sliding_window_view(img[dy : dy + rows], w, axis=1)  # (rows, cols, w)
-        out += np.abs(windows - tpl[dy]).sum(axis=2, dtype=np.float32)
+        for dx in range(w):
+            np.subtract(img[dy : dy + rows, dx : dx + cols], tpl[dy, dx], out=tmp)
+            np.abs(tmp, out=tmp)
+            out += tmp
     return out
 
 

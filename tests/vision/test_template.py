@@ -56,6 +56,25 @@ def test_ncc_peak_stays_put_under_gain_and_offset_while_ssd_sad_move(a, b):
     assert (sad.x, sad.y) != (100, 60)
 
 
+def test_gain_offset_sweep_ncc_never_moves():
+    """The whole range a in 0.5..1.5, b in -40..40 (5 x 5 grid). SSD/SAD stay put only
+    where the change leaves the patch almost as it was (a*150 + b near 150)."""
+    img, tpl = _scene()
+    moved = {"ssd": [], "sad": []}
+    for a in np.linspace(0.5, 1.5, 5):
+        for b in np.linspace(-40, 40, 5):
+            changed = (a * img + b).astype(np.float32)
+            ncc = best_match(match_ncc(changed, tpl), tpl.shape, method="ncc")
+            assert (ncc.x, ncc.y) == (100, 60), (a, b)
+            for method, fn in (("ssd", match_ssd), ("sad", match_sad)):
+                m = best_match(fn(changed, tpl), tpl.shape, method=method)
+                if (m.x, m.y) == (100, 60):
+                    assert abs(a * 150 + b - 150) < 5, (method, a, b)
+                else:
+                    moved[method].append((a, b))
+    assert len(moved["ssd"]) >= 20 and len(moved["sad"]) >= 20
+
+
 def _part_image(kind, *, size=(70, 70), yaw_deg=0.0, seed=0, centre=None, belt=85):
     """Top view of a grey part on the belt, anti-aliased, with sensor noise."""
     rng = np.random.default_rng(seed)

@@ -124,3 +124,52 @@ def test_template_errors_name_the_argument():
         match_sad(np.zeros((10, 10), np.int16), np.zeros((3, 3), np.uint8))
     with pytest.raises(VisionError, match="method.*valid"):
         best_match(np.zeros((3, 3), np.float32), (2, 2), method="mad")
+
+
+def _rendered_parts(kind, placements, lightings, seed):
+    """Grey overhead renders of steel ``kind`` parts; per lighting, per part: the
+    image and the part's pixel centroid (from segmentation: scoring/teaching only)."""
+    from cell.scenario import scenario_from_dict
+    from cell.sim import World
+
+    scenario = scenario_from_dict(
+        {"seed": seed, "parts": {"count": len(placements), "kinds": [kind],
+                                 "materials": ["steel"]}}
+    )
+    world = World.build(scenario, arm=False)
+    ids = [world.place_next_part(x, y, yaw).id for x, y, yaw in placements]
+    world.step(150)
+    out = []
+    for lighting in lightings:
+        world.set_lighting(lighting)
+        frame = world.render("overhead", depth=False, seg=True)
+        grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
+        for i in ids:
+            ys, xs = np.nonzero(frame.seg == i)
+            out.append((lighting, grey, (int(round(xs.mean())), int(round(ys.mean())))))
+    world.close()
+    return out
+
+
+def test_two_template_decision_on_rendered_washer_and_disc():
+    """Teach one washer and one disc (61 px templates cut at the part centre), then
+    decide on windows around parts at other places, yaws and lightings."""
+    pytest.importorskip("cell.sim")
+    from cell.sim import layout
+
+    y0 = layout.CONVEYOR_Y
+    templates = {}
+    for kind in ("washer", "disc"):
+        (_, grey, (cx, cy)), = _rendered_parts(kind, [(0.0, y0, 0.0)], ["front"], seed=1)
+        templates[kind] = grey[cy - 30 : cy + 31, cx - 30 : cx + 31].copy()
+    places = [(-0.1, y0 - 0.02, 0.5), (0.05, y0 + 0.02, 2.0)]
+    for kind, label in (("washer", "A"), ("disc", "B")):
+        for lighting, grey, (cx, cy) in _rendered_parts(kind, places, ["front", "coaxial", "warm"],
+                                                        seed=7):
+            window = grey[cy - 50 : cy + 50, cx - 50 : cx + 50]
+            d = two_template_decision(window, templates["washer"], templates["disc"],
+                                      threshold=0.7)
+            assert d.label == label, (kind, lighting, d.score_a, d.score_b)
+            assert max(d.score_a, d.score_b) > 0.85
+    empty = np.ascontiguousarray(grey[200:300, 5:105])  # belt only
+    assert two_template_decision(empty, templates["washer"], templates["disc"]).label == "none"

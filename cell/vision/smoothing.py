@@ -60,8 +60,7 @@ def median(image: np.ndarray, *, ksize: int = 3) -> np.ndarray:
     Parameters
     ----------
     image : uint8 (H, W) or (H, W, 3).
-    ksize : odd window size in pixels (3 or 5 for any size; larger sizes need uint8,
-        which is the only accepted dtype here).
+    ksize : odd window size in pixels, >= 3.
 
     Wraps ``cv2.medianBlur``.
     """

@@ -86,6 +86,7 @@ class _Blob:
     holes: list[tuple[np.ndarray, np.ndarray]]
     mask_box: tuple[int, int, int, int]  # x, y, w, h of the bounding box
     partial: bool
+    roi: tuple[int, int, np.ndarray] | None = None  # x0, y0, uint8 mask of the part
     rays: np.ndarray | None = None  # cached by _Geometry._prepare
     away: np.ndarray | None = None
     splits: np.ndarray | None = None
@@ -120,6 +121,8 @@ class PartDetector:
         geo = _Geometry(camera, self.settings.plane_z)
         longest = max(k.length for k in KINDS.values())
         self._max_px = int(2.5 * longest / geo.m_per_px)
+        self._frame, self._backlit, self._sigma = (img, bg), backlit, None
+        self._mask = mask
         blobs = self._blobs(mask, dmax, t)
         found: list[tuple[_Blob, str, float, object]] = []
         for blob in blobs:
@@ -137,8 +140,10 @@ class PartDetector:
         s = _BG_SCALE
         small = np.ascontiguousarray(img[s // 2 :: s, s // 2 :: s])
         bg_small = cv2.medianBlur(small, _BG_MEDIAN)
-        level = float(np.median(bg_small.max(axis=2)))
-        spread = float(np.median(bg_small.max(axis=2) - bg_small.min(axis=2)))
+        probe = bg_small[::3, ::3].reshape(-1, 3)
+        hi, lo = probe.max(axis=1), probe.min(axis=1)
+        level = float(np.median(hi))
+        spread = float(np.median(hi - lo))
         backlit = level >= self.settings.backlight_level and spread < 40
         bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
         return bg, backlit
@@ -206,9 +211,14 @@ class PartDetector:
         cv2.drawContours(own, [c.reshape(-1, 2) - [x0, y0]], -1, 255, -1)
         d = dmax[y0:y1, x0:x1]
         inside = d[(own > 0) & (mask[y0:y1, x0:x1] > 0)]
-        level = max(t, 0.5 * float(np.median(inside))) if inside.size else t
+        half = inside.size // 2
+        level = max(t, 0.5 * float(np.partition(inside, half)[half])) if inside.size else t
         own = cv2.dilate(own, np.ones((3, 3), np.uint8))
-        sub = ((d > level) & (own > 0)).astype(np.uint8) * 255
+        keep = (d > level) & (own > 0)
+        img, bg = self._frame
+        if not self._backlit:  # a light table casts no shadows; silhouettes are neutral
+            keep &= ~_shadow(img[y0:y1, x0:x1], bg[y0:y1, x0:x1], self.settings.shadow_chroma)
+        sub = keep.astype(np.uint8) * 255
         sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
         cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         if hr is None:
@@ -221,7 +231,9 @@ class PartDetector:
             bx, by, bbw, bbh = cv2.boundingRect(cj)
             bx, by = bx + x0, by + y0
             partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
-            out.append(_make_blob(cj.reshape(-1, 2), cs, hr, j, (x0, y0), partial))
+            blob = _make_blob(cj.reshape(-1, 2), cs, hr, j, (x0, y0), partial)
+            blob.roi = (x0, y0, sub)
+            out.append(blob)
         return out
 
     # --- kinds ----------------------------------------------------------------------------
@@ -232,7 +244,7 @@ class PartDetector:
             return "unknown", 0.0, math.inf, _Fit(None, 0.0025)
         rough = {k: score_kind(mid, k) for k in KINDS}
         order = sorted(rough, key=rough.get)[:2]
-        if rough[order[1]] > rough[order[0]] + 30.0:
+        if rough[order[1]] > rough[order[0]] + 12.0:
             order = order[:1]
         scores, fits = dict(rough), {}
         for k in order:
@@ -271,40 +283,93 @@ class PartDetector:
         return [(blob, kind, conf, res)]
 
     def _split(self, blob: _Blob, mask: np.ndarray, geo: _Geometry) -> list:
+        """Cut a blob that fits no kind into touching parts, each of which must fit one.
+
+        Candidates: cuts between pairs of deep convexity defects (two convex parts that
+        touch leave a notch on each side of the contact; the shortest cuts between deep
+        notches are tried), then cores of the distance transform at a few depths, each
+        pixel going to its nearest core (erosion-based separation). The candidate whose
+        pieces fit their kinds best wins.
+        """
         x, y, bw, bh = blob.mask_box
+        ox, oy = x - 1, y - 1
         roi = np.zeros((bh + 2, bw + 2), np.uint8)
-        outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32) - [x - 1, y - 1]
+        outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32) - [ox, oy]
         cv2.drawContours(roi, [outline], -1, 255, -1)
         for hole, hn in blob.holes:
-            hp = np.round(hole - 0.5 * hn).astype(np.int32) - [x - 1, y - 1]
+            hp = np.round(hole - 0.5 * hn).astype(np.int32) - [ox, oy]
             cv2.drawContours(roi, [hp], -1, 0, -1)
-        dist = cv2.distanceTransform(roi, cv2.DIST_L2, 3)
         best, best_cost = [], math.inf
-        for level in (0.35, 0.5, 0.65, 0.8):
-            cores = (dist > level * float(dist.max())).astype(np.uint8)
-            n, _ = cv2.connectedComponents(cores)
-            if n < 3 or n > 5:
+        for seeds in self._cut_candidates(roi):
+            pieces = self._pieces(roi, seeds, (ox, oy), geo)
+            if not pieces:
                 continue
-            _, labels = cv2.distanceTransformWithLabels(
-                1 - cores, cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_CCOMP
-            )
-            pieces, cost = [], 0.0
-            for lab in np.unique(labels[cores > 0]):
-                piece = ((labels == lab) & (roi > 0)).astype(np.uint8) * 255
-                sub = self._blobs_offset(piece, (x - 1, y - 1))
-                if len(sub) != 1:
-                    cost = math.inf
-                    break
-                kind, conf, fit, res = self._fit(sub[0], geo)
-                if kind == "unknown":
-                    cost = math.inf
-                    break
-                res.centroid_px = _px_centroid(sub[0])
-                pieces.append((sub[0], kind, conf, res))
-                cost += fit
-            if pieces and cost / len(pieces) < best_cost:
-                best, best_cost = pieces, cost / len(pieces)
+            cost = sum(p[4] for p in pieces) / len(pieces)
+            if cost < best_cost:
+                best, best_cost = [p[:4] for p in pieces], cost
         return best if best_cost < 9.0 else []
+
+    def _cut_candidates(self, roi: np.ndarray):
+        """Seed images (uint8, pieces labelled 1..n) for possible splits of ``roi``."""
+        contours, _ = cv2.findContours(roi, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        if contours:
+            c = max(contours, key=len)
+            hull = cv2.convexHull(c, returnPoints=False)
+            defects = None
+            if len(c) >= 5 and hull is not None and len(hull) >= 4:
+                try:
+                    defects = cv2.convexityDefects(c, hull)
+                except cv2.error:
+                    defects = None
+            if defects is not None:
+                deep = [(d[0][3] / 256.0, tuple(c[d[0][2]][0])) for d in defects
+                        if d[0][3] >= 2.5 * 256]
+                deep.sort(reverse=True)
+                deep = deep[:6]
+                pairs = []
+                for i in range(len(deep)):
+                    for j in range(i + 1, len(deep)):
+                        (di, pi), (dj, pj) = deep[i], deep[j]
+                        pairs.append((math.dist(pi, pj) / (di + dj), pi, pj))
+                pairs.sort()
+                for _, pi, pj in pairs[:4]:
+                    cut = roi.copy()
+                    cv2.line(cut, pi, pj, 0, 2)
+                    n, labels = cv2.connectedComponents(cut, connectivity=4)
+                    if n == 3:
+                        yield labels.astype(np.uint8)
+        dist = cv2.distanceTransform(roi, cv2.DIST_L2, 3)
+        for level in (3.0, 5.0, 8.0, 12.0):
+            cores = (dist > level).astype(np.uint8)
+            n, labels = cv2.connectedComponents(cores)
+            if 3 <= n <= 4:
+                yield labels.astype(np.uint8)
+
+    def _pieces(self, roi, seeds, offset, geo) -> list:
+        """Every pixel of ``roi`` to its nearest seed; each piece must fit a kind."""
+        _, near = cv2.distanceTransformWithLabels(
+            (seeds == 0).astype(np.uint8), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
+        )
+        ys, xs = np.nonzero(seeds)
+        lookup = np.zeros(near.max() + 1, np.uint8)
+        # DIST_LABEL_PIXEL numbers the zero pixels (the seeds) in row-major order
+        lookup[1 : len(ys) + 1] = seeds[ys, xs]
+        owner = lookup[near]
+        out = []
+        for lab in range(1, int(seeds.max()) + 1):
+            piece = ((owner == lab) & (roi > 0)).astype(np.uint8) * 255
+            if cv2.countNonZero(piece) < 30:
+                return []
+            sub = self._blobs_offset(piece, offset)
+            if len(sub) != 1:
+                return []
+            sub[0].roi = (offset[0], offset[1], piece)
+            kind, conf, fit, res = self._fit(sub[0], geo)
+            if kind == "unknown":
+                return []
+            res.centroid_px = _px_centroid(sub[0])
+            out.append((sub[0], kind, conf, res, fit))
+        return out
 
     def _blobs_offset(self, piece: np.ndarray, offset: tuple[int, int]) -> list[_Blob]:
         contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
@@ -317,6 +382,27 @@ class PartDetector:
             if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30
         ]
 
+    def _belt_near(self, img, bg, x0, y0, x1, y1) -> np.ndarray:
+        """The belt's colour next to a part: the mean of the background pixels in a window
+        around it (the median-filtered estimate is biased near a part in a noisy frame)."""
+        h, w = img.shape[:2]
+        xa, ya, xb, yb = max(x0 - 6, 0), max(y0 - 6, 0), min(x1 + 6, w), min(y1 + 6, h)
+        free = cv2.bitwise_not(self._mask[ya:yb, xa:xb])
+        if cv2.countNonZero(free) < 30:
+            return bg[min((y0 + y1) // 2, h - 1), min((x0 + x1) // 2, w - 1)]
+        return np.array(cv2.mean(img[ya:yb, xa:xb], mask=free)[:3])
+
+    def _noise_sigma(self, img: np.ndarray) -> float:
+        """The frame's sensor noise (grey levels, green channel), from neighbour differences
+        on every 8th row: robust (MAD), so edges and grain, a minority, do not count."""
+        if self._sigma is None:
+            rows = img[4::8, :, 1].astype(np.int16)
+            d = (rows[:, 1:] - rows[:, :-1]).ravel()
+            k = d.size // 2
+            mad = float(np.partition(np.abs(d - np.partition(d, k)[k]), k)[k])
+            self._sigma = 1.4826 * mad / math.sqrt(2)
+        return self._sigma
+
     # --- material -------------------------------------------------------------------------
     def _material(
         self, img: np.ndarray, bg: np.ndarray, blob: _Blob, backlit: bool
@@ -326,19 +412,20 @@ class PartDetector:
             return "unknown", 0.0
         x, y, bw, bh = blob.mask_box
         h, w = img.shape[:2]
-        x0, y0 = max(x - 1, 0), max(y - 1, 0)
-        x1, y1 = min(x + bw + 1, w), min(y + bh + 1, h)
-        roi = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        origin = np.array([x0, y0])
-        cv2.drawContours(roi, [np.round(blob.contour - blob.normals).astype(np.int32) - origin],
-                         -1, 255, -1)
-        for hole, hn in blob.holes:
-            cv2.drawContours(roi, [np.round(hole - hn).astype(np.int32) - origin], -1, 0, -1)
-        sel = cv2.erode(roi, np.ones((3, 3), np.uint8)) > 0
-        if int(sel.sum()) < 8:
+        if blob.roi is None:
             return "unknown", 0.0
-        cu, cv = int(np.clip(x + bw // 2, 0, w - 1)), int(np.clip(y + bh // 2, 0, h - 1))
-        feats = material_features(img[y0:y1, x0:x1], sel, bg[cv, cu], belt_rgb=st.belt_rgb)
+        x0, y0, roi = blob.roi
+        # The interior, away from the edge's blend with the belt: a 5x5 erosion, or 3x3
+        # where that leaves too little (a square nut's ring is 4 px wide).
+        sel = cv2.erode(roi, np.ones((5, 5), np.uint8)) > 0
+        if int(np.count_nonzero(sel)) < 150:
+            sel = cv2.erode(roi, np.ones((3, 3), np.uint8)) > 0
+        if int(np.count_nonzero(sel)) < 8:
+            return "unknown", 0.0
+        x1, y1 = x0 + roi.shape[1], y0 + roi.shape[0]
+        belt = self._belt_near(img, bg, x0, y0, x1, y1)
+        feats = material_features(img[y0:y1, x0:x1], sel, belt, belt_rgb=st.belt_rgb,
+                                  noise_sigma=self._noise_sigma(img))
         return classify_material(
             feats,
             backlit=False,
@@ -353,6 +440,22 @@ class _Fit:
     fp: object  # Footprint | None
     z_mid: float  # height of the footprint's centre above the belt (m)
     centroid_px: tuple[float, float] = (0.0, 0.0)
+
+
+def _shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
+    """Pixels that are the background darkened without a change of colour: shadow.
+
+    A shadow scales the light falling on the belt, so every channel drops by about the
+    same factor; a part changes the ratios (Cucchiara et al., *Detecting moving objects,
+    ghosts and shadows in video streams*, IEEE PAMI 2003: shadows keep chromaticity).
+    ``chroma`` bounds the spread of the three ratios, relative to their largest; 0 = off.
+    """
+    if chroma <= 0:
+        return np.zeros(img.shape[:2], bool)
+    i = cv2.blur(img, (3, 3)).astype(np.float32)
+    r = i / (bg.astype(np.float32) + 1.0)
+    rmax, rmin = r.max(axis=2), r.min(axis=2)
+    return (rmax < 0.9) & (rmax - rmin < chroma * rmax)
 
 
 def _make_blob(pts, contours, hier, i, offset, partial) -> _Blob:

@@ -49,7 +49,9 @@ class Footprint:
     net area (outline minus holes, m^2); ``centroid`` (2,) its centroid; ``length`` and
     ``width`` the sides of the minimum-area rectangle (m, length >= width) and
     ``rect_angle`` the direction of its long side (rad); ``hole_fraction`` the holes'
-    area over the outline's area; ``solidity`` the outline's area over its hull's area.
+    area over the outline's area; ``solidity`` the outline's area over its hull's area;
+    ``facets6`` the strength (0..1) of six-fold flats: the 6th circular harmonic of the
+    outline's chord directions (about 0.6 for a rendered hex nut, below 0.15 for a circle).
     """
 
     outline: np.ndarray
@@ -61,6 +63,7 @@ class Footprint:
     rect_angle: float
     hole_fraction: float
     solidity: float
+    facets6: float = 0.0
 
 
 def _polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
@@ -117,7 +120,23 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
         rect_angle=float(math.atan2(math.sin(ang), math.cos(ang))),
         hole_fraction=float(1.0 - area / area_out) if area_out > 0 else 0.0,
         solidity=float(area_out / hull_area) if hull_area > 0 else 0.0,
+        facets6=_facets(outline, 6),
     )
+
+
+def _facets(outline: np.ndarray, n: int, step: int = 5) -> float:
+    d = np.roll(outline, -step, axis=0) - outline
+    length = np.hypot(d[:, 0], d[:, 1])
+    total = float(length.sum())
+    if total <= 0:
+        return 0.0
+    return float(abs(np.sum(length * np.exp(1j * n * np.arctan2(d[:, 1], d[:, 0])))) / total)
+
+
+# Six-fold facet strength expected of the round kinds (regular hexagon 0.6 as rendered and
+# outlined at 1.65 px/mm; circles 0.04); other kinds are told apart by size and holes.
+_FACETS6 = {"hex_nut": 0.6, "washer": 0.04, "disc": 0.04}
+_SIGMA_FACETS = 0.12
 
 
 def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
@@ -150,17 +169,20 @@ def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
 def score_kind(fp: Footprint, kind: str) -> float:
     """Summed squared z-score of a footprint against a kind's nominal descriptors (0 = exact).
 
-    Length and width are compared in metres with a fixed tolerance; hole fraction and
-    solidity as ratios. Lower is better; above about 16 the footprint fits no kind.
+    Length and width are compared in metres with a fixed tolerance; hole fraction,
+    solidity and (for the round kinds) six-fold facet strength as ratios. Lower is better;
+    above about 16 the footprint fits no kind.
     """
     if kind not in KINDS:
         raise VisionError(f"score_kind: unknown kind {kind!r}; valid: {', '.join(KINDS)}")
     length, width, hole, solidity = _NOMINAL[kind]
+    facets = ((fp.facets6 - _FACETS6[kind]) / _SIGMA_FACETS) ** 2 if kind in _FACETS6 else 0.0
     return (
         ((fp.length - length) / _SIGMA_SIZE) ** 2
         + ((fp.width - width) / _SIGMA_SIZE) ** 2
         + ((fp.hole_fraction - hole) / _SIGMA_HOLE) ** 2
         + ((fp.solidity - solidity) / _SIGMA_SOLIDITY) ** 2
+        + facets
     )
 
 

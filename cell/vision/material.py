@@ -32,6 +32,7 @@ from cell.errors import VisionError
 
 __all__ = ["MaterialFeatures", "classify_material", "material_features"]
 
+_HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
 
 
@@ -55,7 +56,12 @@ class MaterialFeatures:
 
 
 def material_features(
-    patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.ndarray, *, belt_rgb: tuple[float, ...]
+    patch: np.ndarray,
+    mask: np.ndarray,
+    belt_rgb_seen: np.ndarray,
+    *,
+    belt_rgb: tuple[float, ...],
+    noise_sigma: float = 0.0,
 ) -> MaterialFeatures:
     """Grain and albedo features of one part.
 
@@ -65,6 +71,9 @@ def material_features(
     mask : (H, W) bool, the part's interior in ``patch`` (edges excluded).
     belt_rgb_seen : (3,) the belt's colour next to the part in the same image (grey levels).
     belt_rgb : the belt's nominal reflectance (0..1), the white-balance reference.
+    noise_sigma : the frame's sensor noise per channel (grey levels), if known. Channels
+        near black clip the noise, so the part's own noise estimate (across its colour) can
+        read low; the larger of the two is used.
 
     The grain is measured on the high-pass residual (pixel minus its 3x3 mean), so smooth
     shading across a face does not count, with robust (median-based) scales, so the few
@@ -77,44 +86,57 @@ def material_features(
     if mask.shape != patch.shape[:2]:
         raise VisionError(f"material_features: argument 'mask' must be {patch.shape[:2]}, "
                           f"got {mask.shape}")
-    n = int(mask.sum())
+    m8 = mask.view(np.uint8)
+    n = cv2.countNonZero(m8)
     if n < 8:
         raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
-    img = patch.astype(np.float32)
-    px = img[mask].astype(np.float64)
-    belt_seen = np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
-    mean = px.mean(axis=0)
-    norm = float(np.linalg.norm(mean))
-    u = mean / norm if norm > 1e-6 else np.full(3, 1 / math.sqrt(3))
-    hp = (img - cv2.blur(img, (3, 3)))[mask].astype(np.float64)
-    par = hp @ u
-    orth = np.linalg.norm(hp - par[:, None] * u, axis=1)
-    s_par = 1.4826 * float(np.median(np.abs(par - np.median(par))))
-    s_noise = float(np.median(orth)) / 1.1774  # Rayleigh median -> per-axis sigma
+    patch = np.ascontiguousarray(patch)
+    if patch.dtype != np.uint8:
+        patch = np.clip(patch, 0, 255).astype(np.uint8)
+    mean = np.array(cv2.mean(patch, mask=m8)[:3])
+    norm = float(np.sqrt(mean @ mean))
+    u = (mean / norm if norm > 1e-6 else np.full(3, 1 / math.sqrt(3))).astype(np.float32)
+    hp = cv2.subtract(patch, cv2.blur(patch, (3, 3)), dtype=cv2.CV_32F)
+    par_img = cv2.transform(hp, u.reshape(1, 3))
+    sq_img = cv2.transform(hp * hp, np.ones((1, 3), np.float32))
+    par = par_img[mask]
+    orth2 = sq_img[mask] - par * par
+    k = n // 2
+    med = np.partition(par, k)[k]
+    s_par = 1.4826 * float(np.partition(np.abs(par - med), k)[k])
+    s_noise = math.sqrt(max(float(np.partition(orth2, k)[k]), 0.0)) / 1.1774  # Rayleigh median
+    s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
     grain_var = s_par**2 - s_noise**2
     se = math.sqrt(2.0 / (0.37 * n)) * (s_par**2 + s_noise**2) + 1e-9
+    unclipped = cv2.inRange(patch, (0, 0, 0), (253, 253, 253))
+    clipped = 1.0 - cv2.countNonZero(cv2.bitwise_and(unclipped, m8 * 255)) / n
+    belt_seen = np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
     albedo = mean / belt_seen * np.asarray(belt_rgb, dtype=np.float64)
     return MaterialFeatures(
         mean_rgb=mean,
         albedo=albedo,
         grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
         grain_z=grain_var / se,
-        clipped=float((px >= 254).any(axis=1).mean()),
+        clipped=float(clipped),
         pixels=n,
     )
 
 
+_FINISH_ALBEDO = np.array([
+    np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == "metal" else 1.0)
+    for m in MATERIALS.values()
+])
+_FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
+
+
 def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> float:
-    """P(metal) from the nearest catalogue finishes by white-balanced albedo (softmax)."""
-    names = list(MATERIALS)
-    ref = np.array([
-        np.array(MATERIALS[m].rgba[:3]) * (_GRAIN_MEAN if MATERIALS[m].material == "metal" else 1)
-        for m in names
-    ])
-    d2 = ((ref - albedo) ** 2).sum(axis=1) / sigma**2
+    """P(metal) from the nearest catalogue finishes by white-balanced albedo (softmax).
+
+    Metals' reference albedo is their colour times the grain's mean brightness.
+    """
+    d2 = ((_FINISH_ALBEDO - albedo) ** 2).sum(axis=1) / sigma**2
     w = np.exp(-(d2 - d2.min()) / 2)
-    metal = np.array([MATERIALS[m].material == "metal" for m in names])
-    p = float(w[metal].sum() / w.sum())
+    p = float(w[_FINISH_METAL].sum() / w.sum())
     # Brighter than any matte finish can be: a specular reflection, so metal.
     if albedo.mean() > 1.05:
         p = max(p, 0.9)
@@ -134,18 +156,20 @@ def classify_material(
     The albedo's nearest catalogue finishes give a prior P(metal) (Gaussian tolerance
     ``albedo_sigma``); grain then multiplies the odds: clear grain (``grain >= grain_metal``
     with ``grain_z >= grain_z_min``) on a surface bright enough to show it counts 50:1 for
-    metal, a well-sampled bright surface with no grain 1:10 against. A back-lit part is
+    metal, a well-sampled bright surface with grain below 0.4 * ``grain_metal`` 1:10
+    against. The albedo prior is held within 0.05..0.95, so clear grain always wins. A back-lit part is
     ``unknown`` (confidence 0): a silhouette shows neither cue.
     """
     if backlit:
         return "unknown", 0.0
     f = features
-    p = min(max(_albedo_metal_probability(f.albedo, albedo_sigma), 1e-6), 1 - 1e-6)
+    # Albedo alone is never sure: specular light makes metal as bright as white plastic.
+    p = min(max(_albedo_metal_probability(f.albedo, albedo_sigma), 0.05), 0.95)
     odds = p / (1 - p)
     bright = float(f.albedo.mean()) >= 0.25
     if bright and f.grain >= grain_metal and f.grain_z >= grain_z_min:
         odds *= 50.0
-    elif bright and f.grain_z < 1.0 and f.grain < 0.5 * grain_metal and f.pixels >= 150:
+    elif bright and f.grain < 0.4 * grain_metal and f.pixels >= 150:
         odds *= 0.1
     p = odds / (1 + odds)
     return ("metal", p) if p >= 0.5 else ("plastic", 1 - p)

@@ -44,6 +44,11 @@ class VisionSettings:
     smooth: int = setting(
         3, lo=0, hi=15, doc="box filter aperture on the difference image (px, odd; 0 = off)"
     )
+    shadow_chroma: float = setting(
+        0.25, lo=0.0, hi=1.0,
+        doc="a darker pixel whose channel ratios to the background differ by less than this "
+        "fraction is shadow, not part (0 = keep shadows)",
+    )
     plane_z: float = setting(
         0.08, lo=-10.0, hi=10.0, doc="world height of the surface the parts lie on (m)"
     )
@@ -72,7 +77,7 @@ class VisionSettings:
         doc="relative grain amplitude from which a part counts as grainy (brightness fraction)",
     )
     grain_z_min: float = setting(
-        3.0, lo=0.0, hi=100.0, doc="grain evidence needed to count (standard errors)"
+        2.5, lo=0.0, hi=100.0, doc="grain evidence needed to count (standard errors)"
     )
     albedo_sigma: float = setting(
         0.08, lo=0.001, hi=1.0, doc="tolerance of the albedo match to catalogue finishes (0..1)"

@@ -19,3 +19,7 @@ __all__ = [
     "build_spec",
     "true_camera_model",
 ]
+
+from cell.sim.arm import HOME, add_arm, build_arm  # noqa: E402
+
+__all__ += ["HOME", "add_arm", "build_arm"]

@@ -13,7 +13,8 @@ right bin). Reported per kind and overall:
   acceleration limits (the ratio is measured per cycle, in one run);
 - cycles per simulated minute;
 - IK wall time per solve (ms): mean and 95th percentile, and iterations per solve;
-- the peak torque of each joint over its UR5e rating (servos plus feed-forward).
+- the peak torque of each joint over its UR5e rating (servos plus feed-forward), and
+  the largest error between a joint and its reference during the motions (mrad).
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ def run_kind(kind: str, poses: int, seed: int) -> dict:
         "ik_ms_mean": float(np.mean(ik_ms)) if ik_ms else float("nan"),
         "ik_ms_p95": float(np.percentile(ik_ms, 95)) if ik_ms else float("nan"),
         "ik_iterations_mean": float(np.mean(ik_its)) if ik_its else float("nan"),
+        "max_tracking_error_mrad": 1000 * skill.driver.max_tracking_error,
         "peak_torque_over_effort": [round(float(v), 3) for v in peak / effort],
         "errors": errors,
     }
@@ -136,7 +138,8 @@ def main(argv: list[str]) -> int:
               f"{r['cycles_per_min']:>8.1f} {r['ratio_to_optimal']:>6.3f} "
               f"{r['ratio_to_optimal_max']:>9.3f} {r['ik_ms_mean']:>6.3f} {r['ik_ms_p95']:>7.3f} "
               f"{r['ik_iterations_mean']:>6.2f}")
-        print(f"{'':<11} peak torque / rating per joint: {r['peak_torque_over_effort']}")
+        print(f"{'':<11} peak torque / rating per joint: {r['peak_torque_over_effort']}, "
+              f"largest tracking error {r['max_tracking_error_mrad']:.2f} mrad")
         for e in r["errors"]:
             print(f"    error: {e}")
     o = overall

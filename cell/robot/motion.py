@@ -46,6 +46,7 @@ class ArmDriver:
         self._ff = np.array([model.actuator(n + "_ff").id for n in names])
         self.log = log
         self.q_cmd = self.joint_positions()
+        self.max_tracking_error = 0.0  # largest |encoder - reference| during motions, rad
 
     def joint_positions(self) -> np.ndarray:
         """Encoder reading (6,) rad."""
@@ -83,6 +84,8 @@ class ArmDriver:
         for k in range(n):  # the set-point of each step is the reference at its start
             self.command(*seg.sample(k * self.dt))
             self._step(1)
+            err = np.abs(self.joint_positions() - seg.sample((k + 1) * self.dt)[0]).max()
+            self.max_tracking_error = max(self.max_tracking_error, float(err))
         self.command(seg.q1, np.zeros(6), np.zeros(6))
         self.settle(what=what, tolerance=tolerance)
         return seg

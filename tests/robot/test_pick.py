@@ -60,6 +60,7 @@ def test_a_part_goes_to_its_bin_within_the_joint_limits(cell):
     assert np.abs(qdd).max() <= amax * (1 + 1e-9)
     assert np.abs(np.diff(q, axis=0)).max() <= vmax * dt * (1 + 1e-9)
     assert np.abs(qd).max() > 0.9 * vmax  # and the motion does use them
+    assert skill.driver.max_tracking_error < 0.005  # the servos follow the reference
 
 
 def test_vacuum_switch_reads_a_held_part_and_an_open_cup(cell):

@@ -40,7 +40,7 @@ from cell.vision.settings import VisionSettings
 __all__ = ["Detection", "PartDetector"]
 
 _BG_SCALE = 8  # the background model's downscale factor
-_BG_MEDIAN = 9  # its median aperture at that scale (72 px at full scale)
+_BG_MEDIAN = 15  # its median aperture at that scale (120 px at full scale)
 
 
 @dataclass(frozen=True)
@@ -153,9 +153,9 @@ class PartDetector:
     ) -> tuple[np.ndarray, np.ndarray, float]:
         """(difference image, foreground mask, threshold) for an RGB frame and its background.
 
-        The difference is the largest channel difference (grey levels). It is box-filtered
-        (``smooth``) only when the frame is noisy (MAD above 2 grey levels), so clean frames
-        keep sharp edges.
+        The difference is the largest channel difference (grey levels). Only when the frame
+        is noisy (MAD above 2 grey levels) is the image box-filtered (``smooth``) first, so
+        clean frames keep sharp edges.
         """
         st = self.settings
         h, w = img.shape[:2]
@@ -163,8 +163,10 @@ class PartDetector:
         dmax = np.ascontiguousarray(cv2.dilate(diff, np.ones((1, 3), np.uint8))[:, 1::3])
         sample = dmax[4::8, 4::8].astype(np.float32)
         mad = float(np.median(np.abs(sample - np.median(sample)))) * 1.4826
-        if st.smooth and mad > 2.0:
-            dmax = cv2.blur(dmax, (st.smooth, st.smooth))
+        if st.smooth and mad > 2.0:  # noisy: average the image before differencing
+            k = st.smooth
+            diff = cv2.absdiff(cv2.blur(img, (k, k)), bg).reshape(h, w * 3)
+            dmax = np.ascontiguousarray(cv2.dilate(diff, np.ones((1, 3), np.uint8))[:, 1::3])
             sample = dmax[4::8, 4::8].astype(np.float32)
             mad = float(np.median(np.abs(sample - np.median(sample)))) * 1.4826
         if st.threshold_method == "fixed":
@@ -212,7 +214,9 @@ class PartDetector:
         d = dmax[y0:y1, x0:x1]
         inside = d[(own > 0) & (mask[y0:y1, x0:x1] > 0)]
         half = inside.size // 2
-        level = max(t, 0.5 * float(np.partition(inside, half)[half])) if inside.size else t
+        level = t
+        if inside.size:
+            level = max(t, self.settings.edge_level * float(np.partition(inside, half)[half]))
         own = cv2.dilate(own, np.ones((3, 3), np.uint8))
         keep = (d > level) & (own > 0)
         img, bg = self._frame
@@ -249,6 +253,8 @@ class PartDetector:
         scores, fits = dict(rough), {}
         for k in order:
             lo, hi = _edge_heights(k)
+            if k == "bolt":
+                lo, hi = _bolt_heights(blob, geo, mid)
             fp = geo.footprint(blob, lo, hi)
             if fp is not None:
                 scores[k] = score_kind(fp, k)
@@ -448,14 +454,15 @@ def _shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     A shadow scales the light falling on the belt, so every channel drops by about the
     same factor; a part changes the ratios (Cucchiara et al., *Detecting moving objects,
     ghosts and shadows in video streams*, IEEE PAMI 2003: shadows keep chromaticity).
-    ``chroma`` bounds the spread of the three ratios, relative to their largest; 0 = off.
+    A shadow pixel is below 0.75 of the background in every channel and ``chroma`` bounds
+    the spread of the three ratios, relative to their largest; 0 = off.
     """
     if chroma <= 0:
         return np.zeros(img.shape[:2], bool)
     i = cv2.blur(img, (3, 3)).astype(np.float32)
     r = i / (bg.astype(np.float32) + 1.0)
     rmax, rmin = r.max(axis=2), r.min(axis=2)
-    return (rmax < 0.9) & (rmax - rmin < chroma * rmax)
+    return (rmax < 0.75) & (rmax - rmin < chroma * rmax)
 
 
 def _make_blob(pts, contours, hier, i, offset, partial) -> _Blob:
@@ -471,6 +478,49 @@ def _make_blob(pts, contours, hier, i, offset, partial) -> _Blob:
         j = hier[j][0]
     bx, by, bw, bh = cv2.boundingRect(pts.astype(np.int32))
     return _Blob(outline, normals, holes, (bx, by, bw, bh), partial)
+
+
+def _bolt_heights(blob: _Blob, geo: _Geometry, mid) -> tuple[np.ndarray, np.ndarray]:
+    """Per-point silhouette edge heights of a lying bolt (cell.sim.parts geometry).
+
+    The head (10 mm across flats, its corners 11.5 mm high, 4 mm long) stands like a
+    prism from the belt to its top; the 6 mm shank, tilted up towards the head, shows
+    its tangent lines between about 1.5 and 8.5 mm. The head is the wider end of the
+    mid-height footprint.
+    """
+    geo._prepare(blob)
+    xy = geo._meet(blob.rays, geo.plane_z + 0.0025)
+    axis = np.array([math.cos(mid.rect_angle), math.sin(mid.rect_angle)])
+    s = (xy - mid.centroid) @ axis
+    t = np.abs((xy - mid.centroid) @ np.array([-axis[1], axis[0]]))
+    ends = s.max(), s.min()
+    near_max = t[s > ends[0] - 0.004]
+    near_min = t[s < ends[1] + 0.004]
+    head_at_max = (near_max.max() if near_max.size else 0) > (near_min.max() if near_min.size else 0)
+    head = s > ends[0] - 0.005 if head_at_max else s < ends[1] + 0.005
+    h = KINDS["bolt"].height
+    lo = np.where(head, 0.0, 0.0015)
+    hi = np.where(head, h, 0.0085)
+    return lo, hi
+
+
+_BOLT_END_OFFSET = 0.0014  # body origin from the middle of the bolt's ends, towards the head
+
+
+def _bolt_origin(fp) -> np.ndarray:
+    """A bolt's reference point: on its axis, 1.4 mm from the middle of its two ends
+    towards the head (cell.sim.parts: ends at -20.6 and +23.4 mm). The area centroid
+    would move with the head's roll (10 or 11.5 mm wide); the ends do not."""
+    axis = np.array([math.cos(fp.rect_angle), math.sin(fp.rect_angle)])
+    rel = fp.outline - fp.centroid
+    s = rel @ axis
+    t = rel @ np.array([-axis[1], axis[0]])
+    s_max, s_min = float(s.max()), float(s.min())
+    w_max = float(np.abs(t[s > s_max - 0.004]).max())
+    w_min = float(np.abs(t[s < s_min + 0.004]).max())
+    to_head = 1.0 if w_max > w_min else -1.0
+    mid = 0.5 * (s_max + s_min) + to_head * _BOLT_END_OFFSET
+    return fp.centroid + mid * axis
 
 
 def _edge_heights(kind: str) -> tuple[float, float]:
@@ -567,10 +617,12 @@ class _Geometry:
             blob.away = np.einsum("ij,ij->i", alln, allp - self.nadir) > 0
         blob.splits = np.cumsum([len(p) for p in pts])[:-1]
 
-    def footprint(self, blob: _Blob, lo: float, hi: float):
-        """The blob's footprint on the table plane for silhouette edges at heights lo/hi."""
+    def footprint(self, blob: _Blob, lo, hi):
+        """The blob's footprint on the table plane for silhouette edges at heights ``lo``
+        (edges facing the nadir) and ``hi`` (facing away), metres above the surface:
+        scalars, or arrays with one height per outline point (outline, then holes)."""
         self._prepare(blob)
-        z = self.plane_z + (np.where(blob.away, hi, lo) if lo != hi else lo)
+        z = self.plane_z + np.where(blob.away, hi, lo)
         xy = self._meet(blob.rays, z)
         parts = np.split(xy, blob.splits)
         try:
@@ -590,7 +642,8 @@ def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
     yaw = footprint_yaw(fp, kind) if (fp is not None and kind in KINDS) else 0.0
     position = None
     if not blob.partial and fp is not None:
-        position = (float(fp.centroid[0]), float(fp.centroid[1]))
+        c = _bolt_origin(fp) if kind == "bolt" else fp.centroid
+        position = (float(c[0]), float(c[1]))
     size = (float(fp.length), float(fp.width)) if fp is not None else (0.0, 0.0)
     return Detection(
         id=i,

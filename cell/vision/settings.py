@@ -42,10 +42,16 @@ class VisionSettings:
         20, lo=0, hi=254, doc="lowest threshold Otsu may pick (grey levels); guards empty frames"
     )
     smooth: int = setting(
-        3, lo=0, hi=15, doc="box filter aperture on the difference image (px, odd; 0 = off)"
+        5, lo=0, hi=15,
+        doc="box filter aperture applied to a noisy frame before differencing (px, odd; 0 = off)",
+    )
+    edge_level: float = setting(
+        0.3, lo=0.05, hi=0.95,
+        doc="each blob is re-thresholded at this fraction of its median contrast (0.5: the "
+        "outline where an edge pixel is half covered)",
     )
     shadow_chroma: float = setting(
-        0.25, lo=0.0, hi=1.0,
+        0.15, lo=0.0, hi=1.0,
         doc="a darker pixel whose channel ratios to the background differ by less than this "
         "fraction is shadow, not part (0 = keep shadows)",
     )

@@ -121,6 +121,7 @@ class PartDetector:
         geo = _Geometry(camera, self.settings.plane_z)
         longest = max(k.length for k in KINDS.values())
         self._max_px = int(2.5 * longest / geo.m_per_px)
+        self._min_px = 0.5 * self.settings.min_area_mm2 * 1e-6 / geo.m_per_px**2
         self._frame, self._backlit, self._sigma = (img, bg), backlit, None
         self._mask = mask
         blobs = self._blobs(mask, dmax, t)
@@ -139,7 +140,9 @@ class PartDetector:
         h, w = img.shape[:2]
         s = _BG_SCALE
         small = np.ascontiguousarray(img[s // 2 :: s, s // 2 :: s])
-        bg_small = cv2.medianBlur(small, _BG_MEDIAN)
+        r = _BG_MEDIAN // 2  # mirror the borders, so a window there sees a whole neighbourhood
+        padded = cv2.copyMakeBorder(small, r, r, r, r, cv2.BORDER_REFLECT_101)
+        bg_small = np.ascontiguousarray(cv2.medianBlur(padded, _BG_MEDIAN)[r:-r, r:-r])
         probe = bg_small[::3, ::3].reshape(-1, 3)
         hi, lo = probe.max(axis=1), probe.min(axis=1)
         level = float(np.median(hi))
@@ -194,7 +197,7 @@ class PartDetector:
             if hier[i][3] != -1 or len(c) < 8:
                 continue
             x, y, bw, bh = cv2.boundingRect(c)
-            if bw * bh < 20 or max(bw, bh) > self._max_px:
+            if bw * bh < 20 or max(bw, bh) > self._max_px or cv2.contourArea(c) < self._min_px:
                 continue  # a speck, or far longer than any part: a rail, the table edge
             if dmax is not None:
                 blobs.extend(self._refine(c, contours, hier, i, mask, dmax, t))
@@ -272,8 +275,9 @@ class PartDetector:
         if blob.partial:
             res = _Fit(geo.footprint(blob, 0.0025, 0.0025), 0.0025, centroid_px=_px_centroid(blob))
             longest = max(k.length for k in KINDS.values())
-            if res.fp is None or area_mm2 > st.max_area_mm2 or res.fp.length > 1.3 * longest:
-                return []  # not a part: a rail, a belt edge, the table beyond
+            if (res.fp is None or area_mm2 > st.max_area_mm2 or res.fp.length > 1.3 * longest
+                    or res.fp.width < st.partial_min_width):
+                return []  # not a part: a rail, a belt edge, the table beyond; or a sliver
             return [(blob, "unknown", 0.0, res)]
         kind, conf, fit, res = self._fit(blob, geo)
         if kind != "unknown" and fit < 9.0:
@@ -459,10 +463,13 @@ def _shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     """
     if chroma <= 0:
         return np.zeros(img.shape[:2], bool)
-    i = cv2.blur(img, (3, 3)).astype(np.float32)
-    r = i / (bg.astype(np.float32) + 1.0)
-    rmax, rmin = r.max(axis=2), r.min(axis=2)
-    return (rmax < 0.75) & (rmax - rmin < chroma * rmax)
+    h, w = img.shape[:2]
+    ratio = cv2.divide(cv2.blur(img, (3, 3)), cv2.add(bg, 1), dtype=cv2.CV_32F)
+    ratio = ratio.reshape(h, w * 3)
+    k = np.ones((1, 3), np.uint8)  # max / min over each pixel's three channels
+    rmax = cv2.dilate(ratio, k)[:, 1::3]
+    rmin = cv2.erode(ratio, k)[:, 1::3]
+    return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
 
 
 def _make_blob(pts, contours, hier, i, offset, partial) -> _Blob:

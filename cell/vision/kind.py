@@ -126,11 +126,13 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
 
 def _facets(outline: np.ndarray, n: int, step: int = 5) -> float:
     d = np.roll(outline, -step, axis=0) - outline
-    length = np.hypot(d[:, 0], d[:, 1])
+    z = d[:, 0] + 1j * d[:, 1]
+    length = np.abs(z)
     total = float(length.sum())
     if total <= 0:
         return 0.0
-    return float(abs(np.sum(length * np.exp(1j * n * np.arctan2(d[:, 1], d[:, 0])))) / total)
+    u = z / np.maximum(length, 1e-15)
+    return float(abs(np.sum(length * u**n)) / total)
 
 
 # Six-fold facet strength expected of the round kinds (regular hexagon 0.6 as rendered and

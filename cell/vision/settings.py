@@ -32,11 +32,11 @@ class VisionSettings:
         "median + noise_k * MAD, at least threshold_value), fixed value, or Otsu",
     )
     threshold_value: int = setting(
-        12, lo=1, hi=254,
+        8, lo=1, hi=254,
         doc="fixed threshold, and the floor of auto (grey levels of colour difference)",
     )
     noise_k: float = setting(
-        6.0, lo=1.0, hi=50.0, doc="auto threshold: noise multiples above the median difference"
+        4.0, lo=1.0, hi=50.0, doc="auto threshold: noise multiples above the median difference"
     )
     otsu_floor: int = setting(
         20, lo=0, hi=254, doc="lowest threshold Otsu may pick (grey levels); guards empty frames"
@@ -70,6 +70,11 @@ class VisionSettings:
     )
     split_touching: bool = setting(
         True, doc="cut blobs that fit no single kind into touching parts"
+    )
+    partial_min_width: float = setting(
+        0.008, lo=0.0, hi=1.0,
+        doc="a blob at the image border is reported (as partial) only if at least this wide "
+        "(m): thinner strips there are belt edges and rails, or slivers of a part",
     )
     border_margin: int = setting(
         1, lo=0, hi=50, doc="a blob within this many pixels of the image edge is partial (px)"

@@ -306,11 +306,12 @@ class PartDetector:
         roi = np.zeros((bh + 2, bw + 2), np.uint8)
         outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32) - [ox, oy]
         cv2.drawContours(roi, [outline], -1, 255, -1)
+        filled = roi.copy()  # holes filled: a washer's core is its whole disc
         for hole, hn in blob.holes:
             hp = np.round(hole - 0.5 * hn).astype(np.int32) - [ox, oy]
             cv2.drawContours(roi, [hp], -1, 0, -1)
         best, best_cost = [], math.inf
-        for seeds in self._cut_candidates(roi):
+        for seeds in self._cut_candidates(filled):
             pieces = self._pieces(roi, seeds, (ox, oy), geo)
             if not pieces:
                 continue

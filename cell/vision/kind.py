@@ -154,12 +154,11 @@ def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
     hole = math.pi * (kind.hole / 2) ** 2
     solidity = 1.0
     if kind.name == "bolt":
-        # Seen from above: a 6 mm shank, 40 mm long, and a head 10 mm across flats and 4 mm
-        # thick (cell.sim.parts); the rectangle is as wide as the head, the hull tapers.
-        head, shank, head_len = 0.010, 0.006, 0.004
-        area = (kind.length - head_len) * shank + head_len * head
-        hull = head_len * head + (kind.length - head_len) * (head + shank) / 2
-        return kind.length, head, 0.0, area / hull
+        # Seen from above: a 6 mm shank, 40 mm long, and a hex head 4 mm thick, 10 to 11.5
+        # mm wide as it rolls (cell.sim.parts). The hull tapers from head to tip; the shank
+        # outlines thinner than 6 mm (its lower flanks are dark), so the solidity measured
+        # on outlines (0.64, front/back/dim renders) is below the drawing's 0.75.
+        return kind.length, 0.011, 0.0, 0.64
     if kind.name == "l_bracket":
         leg = 0.012  # legs 12 mm wide; the hull cuts the inner corner's triangle off
         area = kind.length * leg + (kind.width - leg) * leg

@@ -32,8 +32,9 @@ def _l_bracket() -> np.ndarray:
 
 
 def _bolt() -> np.ndarray:
-    return np.array([[-22, -5], [-18, -5], [-18, -3], [22, -3], [22, 3], [-18, 3], [-18, 5],
-                     [-22, 5]], float) * 1e-3
+    """A bolt as its outline renders: head 11 mm wide, shank outlined 5 mm wide."""
+    return np.array([[-22, -5.5], [-18, -5.5], [-18, -2.5], [22, -2.5], [22, 2.5], [-18, 2.5],
+                     [-18, 5.5], [-22, 5.5]], float) * 1e-3
 
 
 OUTLINES = {

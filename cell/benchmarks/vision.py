@@ -144,6 +144,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None) -> dict:
         p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0, "kind_ok": 0,
             "false": 0, "missed": 0, "partial_ok": 0, "partial_wrong": 0, "touching_pairs": 0,
             "touching_split": 0, "pos_err": [], "yaw_err": [], "latency": [], "render": [],
+            "per_part": [],
             "material_errors": [], "kind_errors": []}
         for p in presets
     }
@@ -165,6 +166,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None) -> dict:
                 s = stats[preset]
                 s["latency"].append(t_detect)
                 s["render"].append(t_render)
+                s["per_part"].append(t_detect / max(len(np.unique(seg)) - 1, 1))
                 _score_frame(world, seg, dets, s)
         finally:
             world.close()
@@ -195,6 +197,7 @@ def _summarise(stats: dict, scenes: int) -> dict:
             "touching_pairs": s["touching_pairs"],
             "touching_split": s["touching_split"],
             "latency_ms": lat,
+            "latency_per_part_ms": float(np.median(s["per_part"])) * 1e3,
             "render_ms": ren,
             "latency_over_render": lat / ren if ren > 0 else float("nan"),
             "material_errors": sorted(set(s["material_errors"]))[:10],
@@ -209,14 +212,15 @@ def _print(report: dict) -> None:
           f"{report['parts_per_scene']} parts per preset, seeds from {report['seed_base']}")
     head = (f"{'preset':<8} {'parts':>5} {'mat%':>6} {'wrong':>5} {'unk':>4} {'kind%':>6} "
             f"{'p50mm':>6} {'p95mm':>6} {'yaw95':>6} {'false':>5} {'miss':>4} {'touch':>7} "
-            f"{'ms':>5} {'/render':>7}")
+            f"{'ms':>5} {'/part':>5} {'/render':>7}")
     print(head)
     for preset, r in report["presets"].items():
         print(f"{preset:<8} {r['parts']:>5} {100 * r['material_accuracy']:>6.1f} "
               f"{r['material_wrong']:>5} {r['material_unknown']:>4} {100 * r['kind_accuracy']:>6.1f} "
               f"{r['position_p50_mm']:>6.2f} {r['position_p95_mm']:>6.2f} {r['yaw_p95_deg']:>6.2f} "
               f"{r['false']:>5} {r['missed']:>4} {r['touching_split']:>3}/{r['touching_pairs']:<3} "
-              f"{r['latency_ms']:>5.2f} {r['latency_over_render']:>7.3f}")
+              f"{r['latency_ms']:>5.2f} {r['latency_per_part_ms']:>5.2f} "
+              f"{r['latency_over_render']:>7.3f}")
     for preset, r in report["presets"].items():
         if r["material_errors"] or r["kind_errors"]:
             print(f"  {preset}: material errors {r['material_errors']} kind errors {r['kind_errors']}")

@@ -121,7 +121,7 @@ class PartDetector:
         geo = _Geometry(camera, self.settings.plane_z)
         longest = max(k.length for k in KINDS.values())
         self._max_px = int(2.5 * longest / geo.m_per_px)
-        self._min_px = 0.5 * self.settings.min_area_mm2 * 1e-6 / geo.m_per_px**2
+        self._min_px = self.settings.min_area_mm2 * 1e-6 / geo.m_per_px**2
         self._frame, self._backlit, self._sigma = (img, bg), backlit, None
         self._mask = mask
         blobs = self._blobs(mask, dmax, t)
@@ -318,6 +318,8 @@ class PartDetector:
             cost = sum(p[4] for p in pieces) / len(pieces)
             if cost < best_cost:
                 best, best_cost = [p[:4] for p in pieces], cost
+            if best_cost < 3.0:
+                break  # every piece fits its kind well: no need to try more cuts
         return best if best_cost < 9.0 else []
 
     def _cut_candidates(self, roi: np.ndarray):
@@ -435,6 +437,8 @@ class PartDetector:
             return "unknown", 0.0
         x1, y1 = x0 + roi.shape[1], y0 + roi.shape[0]
         belt = self._belt_near(img, bg, x0, y0, x1, y1)
+        if float(np.min(belt)) >= st.backlight_level:
+            return "unknown", 0.0  # a glowing light table behind this part: a silhouette
         feats = material_features(img[y0:y1, x0:x1], sel, belt, belt_rgb=st.belt_rgb,
                                   noise_sigma=self._noise_sigma(img))
         return classify_material(

@@ -17,6 +17,7 @@ circular harmonic of the outline's chord directions (Mardia & Jupp, 2000).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -63,7 +64,11 @@ class Footprint:
     rect_angle: float
     hole_fraction: float
     solidity: float
-    facets6: float = 0.0
+
+    @functools.cached_property
+    def facets6(self) -> float:
+        """Six-fold facet strength (0..1), computed on first use."""
+        return _facets(self.outline, 6)
 
 
 def _polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
@@ -120,12 +125,11 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
         rect_angle=float(math.atan2(math.sin(ang), math.cos(ang))),
         hole_fraction=float(1.0 - area / area_out) if area_out > 0 else 0.0,
         solidity=float(area_out / hull_area) if hull_area > 0 else 0.0,
-        facets6=_facets(outline, 6),
     )
 
 
 def _facets(outline: np.ndarray, n: int, step: int = 5) -> float:
-    d = np.roll(outline, -step, axis=0) - outline
+    d = outline[step:] - outline[:-step]  # chords (the few across the seam left out)
     z = d[:, 0] + 1j * d[:, 1]
     length = np.abs(z)
     total = float(length.sum())

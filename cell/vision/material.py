@@ -99,15 +99,24 @@ def material_features(
     hp = cv2.subtract(patch, cv2.blur(patch, (3, 3)), dtype=cv2.CV_32F)
     par_img = cv2.transform(hp, u.reshape(1, 3))
     sq_img = cv2.transform(hp * hp, np.ones((1, 3), np.float32))
-    par = par_img[mask]
-    orth2 = sq_img[mask] - par * par
-    k = n // 2
+    # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
+    # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
+    # shows in the gradient of the smoothed image; the flatter half of the part is kept.
+    grey = cv2.blur(cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), (3, 3))
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
+    slope = (gx * gx + gy * gy)[mask]
+    q = n // 2
+    flat = slope <= np.partition(slope, q)[q]
+    par = par_img[mask][flat]
+    orth2 = (sq_img[mask][flat]) - par * par
+    k = par.size // 2
     med = np.partition(par, k)[k]
     s_par = 1.4826 * float(np.partition(np.abs(par - med), k)[k])
     s_noise = math.sqrt(max(float(np.partition(orth2, k)[k]), 0.0)) / 1.1774  # Rayleigh median
     s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
     grain_var = s_par**2 - s_noise**2
-    se = math.sqrt(2.0 / (0.37 * n)) * (s_par**2 + s_noise**2) + 1e-9
+    se = math.sqrt(2.0 / (0.37 * max(par.size, 1))) * (s_par**2 + s_noise**2) + 1e-9
     unclipped = cv2.inRange(patch, (0, 0, 0), (253, 253, 253))
     clipped = 1.0 - cv2.countNonZero(cv2.bitwise_and(unclipped, m8 * 255)) / n
     belt_seen = np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
@@ -136,11 +145,7 @@ def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> float:
     """
     d2 = ((_FINISH_ALBEDO - albedo) ** 2).sum(axis=1) / sigma**2
     w = np.exp(-(d2 - d2.min()) / 2)
-    p = float(w[_FINISH_METAL].sum() / w.sum())
-    # Brighter than any matte finish can be: a specular reflection, so metal.
-    if albedo.mean() > 1.05:
-        p = max(p, 0.9)
-    return p
+    return float(w[_FINISH_METAL].sum() / w.sum())
 
 
 def classify_material(

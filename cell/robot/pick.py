@@ -49,8 +49,8 @@ GRASP_POINTS: dict[str, tuple[float, float, float]] = {
     "disc": (0.0, 0.0, KINDS["disc"].height),
 }
 TOOL_SYMMETRY = 8  # the cup's lip is a ring of eight: it grasps the same turned by 45 deg
-_HOVER = 0.001  # the cup face stops this far above the part's top; the vacuum pulls
-# the part up against the lip (the lip's reach is 2 mm), so the arm never pushes on it
+_HOVER = 0.0  # the cup face stops at the part's nominal top; the vacuum pulls the part
+# up against the lip (the lip's reach is 2 mm), so the arm never pushes on it
 _SAMPLES = 12  # configurations checked for collisions along each free-space segment
 
 

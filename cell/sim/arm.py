@@ -18,8 +18,8 @@ position servo. Gravity is
 compensated through the actuators (as a controller's model-based feed-forward), and
 the total joint torque is clamped to the UR5e efforts (150/150/150/28/28/28 N m).
 
-The suction tool: a housing on the flange, a bellows cup (geom ``cup``) whose lip is
-a ring of eight small spheres (robust multi-point contact), site ``tcp`` at the cup
+The suction tool: a housing on the flange, a bellows cup (geom ``cup``, drawn only)
+whose lip is a ring of eight small spheres (robust multi-point contact), site ``tcp`` at the cup
 face (``TOOL_LENGTH`` from the flange, on the flange z axis), an adhesion actuator
 ``suction`` on the tool body (ctrl 0..1, ``SUCTION_FORCE`` N at 1) and a touch sensor
 ``suction_touch`` (normal contact force on the lip, N) that plays the vacuum switch.
@@ -215,9 +215,12 @@ def _add_suction_tool(spec: mujoco.MjSpec, wrist3) -> None:
 
     # The cup shares the tool body: pinocchio misplaces sites on nested fixed bodies.
     face = TOOL_LENGTH
+    # The bellows is drawn but does not collide: only the lip touches a part, so a part
+    # the vacuum pulls in askew rests on the lip and drops when vented (a rigid bellows
+    # face next to the lip could wedge a thin washer).
     cup = _geom(tool, "cup", "cyl", (0.0095, 0.009), pos=(0, 0, face - 0.0015 - 0.009),
                 rgba=(0.1, 0.1, 0.1, 1.0))
-    _stiff(cup)
+    cup.contype, cup.conaffinity = 0, 0
     lip_r, ring = 0.0015, 0.0062
     for k in range(8):
         ang = 2 * np.pi * k / 8

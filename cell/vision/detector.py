@@ -232,6 +232,7 @@ class PartDetector:
             return []
         hr = hr[0]
         out = []
+        labels = None
         for j, cj in enumerate(cs):
             if hr[j][3] != -1 or len(cj) < 8:
                 continue
@@ -239,7 +240,11 @@ class PartDetector:
             bx, by = bx + x0, by + y0
             partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
             blob = _make_blob(cj.reshape(-1, 2), cs, hr, j, (x0, y0), partial)
-            blob.roi = (x0, y0, sub)
+            if labels is None:
+                _, labels = cv2.connectedComponents(sub, connectivity=8)
+            px, py = cj[0, 0]
+            own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
+            blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
             out.append(blob)
         return out
 
@@ -345,7 +350,7 @@ class PartDetector:
                         (di, pi), (dj, pj) = deep[i], deep[j]
                         pairs.append((math.dist(pi, pj) / (di + dj), pi, pj))
                 pairs.sort()
-                for _, pi, pj in pairs[:4]:
+                for _, pi, pj in pairs[:10]:
                     cut = roi.copy()
                     cv2.line(cut, pi, pj, 0, 2)
                     n, labels = cv2.connectedComponents(cut, connectivity=4)

@@ -44,7 +44,10 @@ class MaterialFeatures:
     per channel (0..1, may exceed 1 under specular light); ``grain`` the grain amplitude
     relative to the mean brightness (0 for a smooth surface); ``grain_z`` the grain
     variance in units of its standard error (evidence that grain exists); ``clipped``
-    the fraction of saturated pixels; ``pixels`` how many pixels were used.
+    the fraction of saturated pixels; ``pixels`` how many pixels were used;
+    ``grain_visibility`` how many standard errors a metal's grain (5 % of the brightness)
+    would stand above the noise here: where it is small (dim, noisy, tiny), the absence of
+    grain says nothing.
     """
 
     mean_rgb: np.ndarray
@@ -53,6 +56,7 @@ class MaterialFeatures:
     grain_z: float
     clipped: float
     pixels: int
+    grain_visibility: float = 0.0
 
 
 def material_features(
@@ -128,6 +132,7 @@ def material_features(
         grain_z=grain_var / se,
         clipped=float(clipped),
         pixels=n,
+        grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
     )
 
 
@@ -161,9 +166,10 @@ def classify_material(
     The albedo's nearest catalogue finishes give a prior P(metal) (Gaussian tolerance
     ``albedo_sigma``); grain then multiplies the odds: clear grain (``grain >= grain_metal``
     with ``grain_z >= grain_z_min``) on a surface bright enough to show it counts 50:1 for
-    metal, a well-sampled bright surface with grain below 0.4 * ``grain_metal`` 1:10
-    against. The albedo prior is held within 0.05..0.95, so clear grain always wins. A back-lit part is
-    ``unknown`` (confidence 0): a silhouette shows neither cue.
+    metal; grain below 0.4 * ``grain_metal`` where a metal's grain would be clearly
+    visible (``grain_visibility`` >= 6) counts 1:50 against. The albedo prior is held
+    within 0.05..0.95, so clear grain always wins. A back-lit part is ``unknown``
+    (confidence 0): a silhouette shows neither cue.
     """
     if backlit:
         return "unknown", 0.0
@@ -174,7 +180,7 @@ def classify_material(
     bright = float(f.albedo.mean()) >= 0.25
     if bright and f.grain >= grain_metal and f.grain_z >= grain_z_min:
         odds *= 50.0
-    elif bright and f.grain < 0.4 * grain_metal and f.pixels >= 150:
-        odds *= 0.1
+    elif bright and f.grain < 0.4 * grain_metal and f.grain_visibility >= 6.0:
+        odds *= 0.02
     p = odds / (1 + odds)
     return ("metal", p) if p >= 0.5 else ("plastic", 1 - p)

@@ -43,8 +43,13 @@ def _in_bin(pos: np.ndarray, bin_name: str) -> bool:
     return bool(np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2])
 
 
-def run_kind(kind: str, poses: int, seed: int) -> dict:
-    """Run ``poses`` pick-and-place cycles of ``kind``; returns the figures as a dict."""
+def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
+             noise_deg: float = 0.0) -> dict:
+    """Run ``poses`` pick-and-place cycles of ``kind``; returns the figures as a dict.
+
+    ``noise_mm`` / ``noise_deg``: standard deviation of Gaussian errors added to the
+    ground-truth position (each axis, mm) and yaw (deg) given to the robot, to see how
+    much pose error a vision stack may leave."""
     from cell.robot.pick import PartTarget, PickPlace
 
     scenario = scenario_from_dict({
@@ -53,6 +58,7 @@ def run_kind(kind: str, poses: int, seed: int) -> dict:
     })
     world = World.build(scenario)
     rng = np.random.default_rng([seed, list(KINDS).index(kind)])
+    noise_rng = np.random.default_rng([seed, list(KINDS).index(kind), 1])  # same poses
     effort = np.array(EFFORT)
     peak = np.zeros(6)
     dofs = [world.model.joint(f"arm/{n}").dofadr[0] for n in JOINT_NAMES]
@@ -72,8 +78,9 @@ def run_kind(kind: str, poses: int, seed: int) -> dict:
         part = world.place_next_part(x, y, rng.uniform(0.0, 2 * np.pi))
         world.step(50)  # comes to rest
         pos, _ = world.part_pose(part.id)  # GROUND TRUTH: the benchmark's input
-        target = PartTarget(part.kind, float(pos[0]), float(pos[1]),
-                            world.part_yaw(part.id), part.material)
+        err = noise_rng.normal(0.0, 1.0, 3) * [noise_mm / 1000, noise_mm / 1000, np.deg2rad(noise_deg)]
+        target = PartTarget(part.kind, float(pos[0] + err[0]), float(pos[1] + err[1]),
+                            world.part_yaw(part.id) + float(err[2]), part.material)
         try:
             result = skill.run(target)
         except CellError as exc:
@@ -109,11 +116,16 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--quick", action="store_true", help="2 poses per kind (smoke test)")
     ap.add_argument("--poses", type=int, default=20, help="poses per kind (default 20)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--pose-noise-mm", type=float, default=0.0,
+                    help="std of the position error given to the robot, per axis (mm)")
+    ap.add_argument("--yaw-noise-deg", type=float, default=0.0,
+                    help="std of the yaw error given to the robot (deg)")
     ap.add_argument("--kinds", nargs="*", default=list(KINDS), choices=list(KINDS))
     args = ap.parse_args(argv)
     poses = 2 if args.quick else args.poses
     t0 = time.perf_counter()
-    per_kind = {k: run_kind(k, poses, args.seed) for k in args.kinds}
+    per_kind = {k: run_kind(k, poses, args.seed, noise_mm=args.pose_noise_mm,
+                            noise_deg=args.yaw_noise_deg) for k in args.kinds}
     rows = list(per_kind.values())
     n = sum(r["poses"] for r in rows)
     cyc = [r["mean_cycle_s"] for r in rows]
@@ -127,10 +139,14 @@ def main(argv: list[str]) -> int:
         "wall_s": time.perf_counter() - t0,
     }
     if args.json:
-        print(json.dumps({"benchmark": "pick", "seed": args.seed, "kinds": per_kind,
+        print(json.dumps({"benchmark": "pick", "seed": args.seed,
+                          "pose_noise_mm": args.pose_noise_mm,
+                          "yaw_noise_deg": args.yaw_noise_deg, "kinds": per_kind,
                           "overall": overall}, indent=2))
         return 0
-    print(f"pick benchmark: {poses} ground-truth poses per kind, seed {args.seed}")
+    noise = (f", pose error std {args.pose_noise_mm} mm / {args.yaw_noise_deg} deg"
+             if args.pose_noise_mm or args.yaw_noise_deg else "")
+    print(f"pick benchmark: {poses} ground-truth poses per kind, seed {args.seed}{noise}")
     print(f"{'kind':<11} {'success':>8} {'cycle s':>8} {'cyc/min':>8} {'ratio':>6} "
           f"{'ratio max':>9} {'IK ms':>6} {'IK p95':>7} {'IK it':>6}")
     for k, r in per_kind.items():

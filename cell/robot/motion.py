@@ -67,6 +67,14 @@ class ArmDriver:
         if self.log is not None:
             self.log.append((float(self.data.time), self.q_cmd, np.array(qd), np.array(qdd)))
 
+    def sync(self) -> None:
+        """Take the encoder reading as the last command when they differ by more than
+        ``via_tolerance`` (someone else moved the arm), so the next segment starts
+        where the arm is."""
+        q = self.joint_positions()
+        if np.abs(q - self.q_cmd).max() > self.settings.via_tolerance:
+            self.q_cmd = q
+
     def plan(self, q_goal: np.ndarray) -> Segment:
         """The time-optimal segment from the last commanded position to ``q_goal``."""
         return plan_segment(self.q_cmd, q_goal, self.vmax, self.amax)

@@ -204,6 +204,7 @@ class PickPlace:
         verified, part lost, arm blocked; the arm returns home first)."""
         t0 = self.data.time
         n_ik = len(self.ik.stats)
+        self.driver.sync()
         wp = self.plan(part)
         name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
         d = self.driver

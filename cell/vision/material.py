@@ -112,6 +112,8 @@ def material_features(
     slope = (gx * gx + gy * gy)[mask]
     q = n // 2
     flat = slope <= np.partition(slope, q)[q]
+    lit = grey[mask]
+    flat &= lit >= np.partition(lit, q)[q]  # and the lit half: off the shadow terminator
     par = par_img[mask][flat]
     orth2 = (sq_img[mask][flat]) - par * par
     k = par.size // 2

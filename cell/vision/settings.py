@@ -84,7 +84,7 @@ class VisionSettings:
         doc="median background brightness above which the frame is taken as back-lit",
     )
     grain_metal: float = setting(
-        0.05, lo=0.0, hi=1.0,
+        0.04, lo=0.0, hi=1.0,
         doc="relative grain amplitude from which a part counts as grainy (brightness fraction)",
     )
     grain_z_min: float = setting(

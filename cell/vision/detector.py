@@ -297,14 +297,15 @@ class PartDetector:
         res.centroid_px = _px_centroid(blob)
         return [(blob, kind, conf, res)]
 
-    def _split(self, blob: _Blob, mask: np.ndarray, geo: _Geometry) -> list:
+    def _split(self, blob: _Blob, mask: np.ndarray, geo: _Geometry, depth: int = 0) -> list:
         """Cut a blob that fits no kind into touching parts, each of which must fit one.
 
         Candidates: cuts between pairs of deep convexity defects (two convex parts that
         touch leave a notch on each side of the contact; the shortest cuts between deep
         notches are tried), then cores of the distance transform at a few depths, each
         pixel going to its nearest core (erosion-based separation). The candidate whose
-        pieces fit their kinds best wins.
+        pieces fit their kinds best wins. A piece that fits no kind is split again (chains
+        of up to four parts).
         """
         x, y, bw, bh = blob.mask_box
         ox, oy = x - 1, y - 1
@@ -317,7 +318,7 @@ class PartDetector:
             cv2.drawContours(roi, [hp], -1, 0, -1)
         best, best_cost = [], math.inf
         for seeds in self._cut_candidates(filled):
-            pieces = self._pieces(roi, seeds, (ox, oy), geo)
+            pieces = self._pieces(roi, seeds, (ox, oy), geo, mask, depth)
             if not pieces:
                 continue
             cost = sum(p[4] for p in pieces) / len(pieces)
@@ -363,8 +364,9 @@ class PartDetector:
             if 3 <= n <= 4:
                 yield labels.astype(np.uint8)
 
-    def _pieces(self, roi, seeds, offset, geo) -> list:
-        """Every pixel of ``roi`` to its nearest seed; each piece must fit a kind."""
+    def _pieces(self, roi, seeds, offset, geo, mask, depth) -> list:
+        """Every pixel of ``roi`` to its nearest seed; each piece must fit a kind (or, up to
+        ``depth`` 2, split again into pieces that do)."""
         _, near = cv2.distanceTransformWithLabels(
             (seeds == 0).astype(np.uint8), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
         )
@@ -383,8 +385,13 @@ class PartDetector:
                 return []
             sub[0].roi = (offset[0], offset[1], piece)
             kind, conf, fit, res = self._fit(sub[0], geo)
-            if kind == "unknown":
-                return []
+            if kind == "unknown" or fit >= 9.0:
+                more = self._split(sub[0], mask, geo, depth + 1) if depth < 2 else []
+                if more:
+                    out.extend((*p, 4.0) for p in more)  # accepted by _split: fit < 9
+                    continue
+                if kind == "unknown":
+                    return []
             res.centroid_px = _px_centroid(sub[0])
             out.append((sub[0], kind, conf, res, fit))
         return out

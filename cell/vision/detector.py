@@ -1,24 +1,31 @@
 """``PartDetector``: one RGB frame and its camera model in, a list of ``Detection`` out.
 
 What the detector uses: the image, the camera model (intrinsics, distortion, pose), the
-``VisionSettings`` and the catalogue's nominal part geometry and finishes. It never reads
-the simulator. Its background model is learned from the frame itself: a median filter
-much wider than any part over a 1/8-scale copy estimates the empty belt (and whatever
-else surrounds it) under the frame's own lighting, so lighting gradients, spot lights and
-colour temperature need no calibration image.
+``VisionSettings`` (including the belt's nominal reflectance, the white-balance reference)
+and the catalogue's nominal part geometry and finishes. It never reads the simulator.
+Its background model is learned from the frame itself: a median filter much wider than
+any part over a 1/8-scale copy (borders mirrored) estimates the empty belt, and whatever
+else surrounds it, under the frame's own lighting, so light gradients, spot lights and
+colour temperature need no calibration image. No second image is used.
 
 Pipeline (each step a textbook technique):
 1. background estimate (median filter) and per-pixel colour difference (largest channel);
-2. noise-adaptive threshold (median + k * MAD of the smoothed difference, with a floor),
-   or fixed / Otsu (``VisionSettings.threshold_method``); opening removes specks;
-3. contours with holes (``cv2.findContours``, two-level hierarchy);
-4. each outline is mapped onto the table plane per candidate kind: a contour point on the
-   side facing away from the camera's nadir is a top edge, the others bottom edges
-   (a prism seen off-axis shows a wall), so the footprint comes out free of perspective;
+   a noisy frame (MAD > 2 grey levels) is box-filtered first;
+2. noise-adaptive threshold (median + k * MAD of the difference, with a floor), or fixed
+   or Otsu (``VisionSettings.threshold_method``); an opening removes specks; a frame whose
+   background is a bright light table is taken as back-lit;
+3. contours with holes (``cv2.findContours``, two-level hierarchy); each blob is then
+   re-thresholded at a fraction (``edge_level``) of its own contrast, and shadow pixels
+   (darker than the background by one factor in all channels) are dropped;
+4. each outline is mapped onto the table plane per candidate kind: a contour point whose
+   outward normal faces away from the camera's nadir is a top edge, the others bottom
+   edges (a prism seen off-axis shows a wall), so the footprint is free of perspective;
 5. kind from footprint descriptors (:mod:`cell.vision.kind`); a blob that fits no kind is
-   cut into touching parts by distance-transform cores and nearest-core assignment;
-6. material from grain and albedo (:mod:`cell.vision.material`), yaw per kind, position
-   as the footprint centroid on the table plane.
+   cut into touching parts (convexity-defect cuts, distance-transform cores), recursively;
+6. material from grain and white-balanced albedo (:mod:`cell.vision.material`); yaw per
+   kind modulo its symmetry; position the footprint centroid on the table plane (for a
+   bolt, a point fixed relative to its two ends). A blob at the image border is reported
+   ``partial`` with kind ``unknown`` and no position.
 """
 
 from __future__ import annotations
@@ -606,8 +613,11 @@ class _Geometry:
     def rays(self, pts: np.ndarray) -> np.ndarray:
         """World directions (N, 3) of the rays through pixels (N, 2), lens distortion removed."""
         K, dist = self.camera.K, self.camera.dist
-        if np.any(dist):
-            norm = cv2.undistortPoints(pts.reshape(-1, 1, 2).astype(np.float64), K, dist)
+        if np.any(dist):  # as cell.vision.geometry.pixel_to_table: iterated to 1e-14
+            norm = cv2.undistortPointsIter(
+                pts.reshape(-1, 1, 2).astype(np.float64), K, dist, np.eye(3), np.eye(3),
+                (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14),
+            )
             xy = norm.reshape(-1, 2)
         else:
             y = (pts[:, 1] - K[1, 2]) / K[1, 1]

@@ -331,7 +331,7 @@ class PartDetector:
             cost = sum(p[4] for p in pieces) / len(pieces)
             if cost < best_cost:
                 best, best_cost = [p[:4] for p in pieces], cost
-            if best_cost < 3.0:
+            if best_cost < 4.0:
                 break  # every piece fits its kind well: no need to try more cuts
         return best if best_cost < 9.0 else []
 
@@ -358,7 +358,7 @@ class PartDetector:
                         (di, pi), (dj, pj) = deep[i], deep[j]
                         pairs.append((math.dist(pi, pj) / (di + dj), pi, pj))
                 pairs.sort()
-                for _, pi, pj in pairs[:10]:
+                for _, pi, pj in pairs[:6]:
                     cut = roi.copy()
                     cv2.line(cut, pi, pj, 0, 2)
                     n, labels = cv2.connectedComponents(cut, connectivity=4)
@@ -425,10 +425,11 @@ class PartDetector:
         return np.array(cv2.mean(img[ya:yb, xa:xb], mask=free)[:3])
 
     def _noise_sigma(self, img: np.ndarray) -> float:
-        """The frame's sensor noise (grey levels, green channel), from neighbour differences
-        on every 8th row: robust (MAD), so edges and grain, a minority, do not count."""
+        """The frame's sensor noise (grey levels, green channel), from differences of pixels
+        two apart on every 16th row: robust (MAD), so edges and grain, a minority, do not
+        count."""
         if self._sigma is None:
-            rows = img[4::8, :, 1].astype(np.int16)
+            rows = img[4::16, ::2, 1].astype(np.int16)
             d = (rows[:, 1:] - rows[:, :-1]).ravel()
             k = d.size // 2
             mad = float(np.partition(np.abs(d - np.partition(d, k)[k]), k)[k])

@@ -209,6 +209,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None) -> dict:
         world = World.build(sc, arm=False)
         try:
             _place_scene(world, np.random.default_rng(seed), layout)
+            world.render(depth=False, seg=False)  # warm-up: the first render builds the renderer
             for preset in presets:
                 world.set_lighting(preset)
                 t0 = time.perf_counter()

@@ -240,6 +240,7 @@ class PartDetector:
         hr = hr[0]
         out = []
         labels = None
+        n_outer = int(np.count_nonzero(hr[:, 3] == -1))
         for j, cj in enumerate(cs):
             if hr[j][3] != -1 or len(cj) < 8:
                 continue
@@ -247,10 +248,13 @@ class PartDetector:
             bx, by = bx + x0, by + y0
             partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
             blob = _make_blob(cj.reshape(-1, 2), cs, hr, j, (x0, y0), partial)
-            if labels is None:
-                _, labels = cv2.connectedComponents(sub, connectivity=8)
-            px, py = cj[0, 0]
-            own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
+            if n_outer == 1:
+                own_mask = sub
+            else:
+                if labels is None:
+                    _, labels = cv2.connectedComponents(sub, connectivity=8)
+                px, py = cj[0, 0]
+                own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
             blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
             out.append(blob)
         return out

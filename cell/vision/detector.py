@@ -201,8 +201,8 @@ class PartDetector:
         m = self.settings.border_margin
         blobs = []
         for i, c in enumerate(contours):
-            if hier[i][3] != -1 or len(c) < 8:
-                continue
+            if len(c) < 24 or hier[i][3] != -1:
+                continue  # the smallest part's outline is some 80 px long
             x, y, bw, bh = cv2.boundingRect(c)
             if bw * bh < 20 or max(bw, bh) > self._max_px or cv2.contourArea(c) < self._min_px:
                 continue  # a speck, or far longer than any part: a rail, the table edge

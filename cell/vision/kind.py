@@ -71,19 +71,6 @@ class Footprint:
         return _facets(self.outline, 6)
 
 
-def _polygon_area_centroid(poly: np.ndarray) -> tuple[float, np.ndarray]:
-    """Area and centroid of a simple polygon (Green's theorem, via ``cv2.moments``).
-
-    Computed in millimetres around the first vertex, so float32 keeps its precision.
-    """
-    origin = poly[0]
-    m = cv2.moments(((poly - origin) * 1e3).astype(np.float32))
-    a = m["m00"]
-    if abs(a) < 1e-9:
-        return 0.0, poly.mean(axis=0)
-    return abs(a) * 1e-6, origin + np.array([m["m10"] / a, m["m01"] / a]) * 1e-3
-
-
 def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarray] = ()) -> Footprint:
     """Descriptors of a polygon with holes on the table plane.
 
@@ -91,30 +78,45 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
     ----------
     outline : (N, 2) float array, the outer boundary in metres (N >= 3).
     holes : polygons (M, 2) in metres inside ``outline``.
+
+    Areas and centroids come from polygon moments (Green's theorem, ``cv2.moments``),
+    the rectangle from ``cv2.minAreaRect`` and the hull from ``cv2.convexHull``, all on
+    float32 millimetres around the outline's first vertex (float32 keeps its precision).
     """
     outline = np.asarray(outline, dtype=np.float64)
     if outline.ndim != 2 or outline.shape[1] != 2 or outline.shape[0] < 3:
         raise VisionError(f"footprint: outline must be (N>=3, 2), got shape {outline.shape}")
-    area_out, c_out = _polygon_area_centroid(outline)
-    moment = area_out * c_out
-    area = area_out
+    origin = outline[0]
+    pts = ((outline - origin) * 1e3).astype(np.float32)  # mm, local
+    m = cv2.moments(pts)
+    a_out = abs(m["m00"])
+    if a_out < 1e-9:
+        area_out, c_out = 0.0, outline.mean(axis=0)
+        mx = my = 0.0
+    else:
+        area_out = a_out * 1e-6
+        mx, my = m["m10"] / m["m00"], m["m01"] / m["m00"]
+        c_out = origin + np.array([mx, my]) * 1e-3
+    area, sx, sy = a_out, a_out * mx, a_out * my  # mm^2 and first moments, local
     hole_list = []
     for hole in holes:
         hole = np.asarray(hole, dtype=np.float64)
         if hole.shape[0] < 3:
             continue
-        a_h, c_h = _polygon_area_centroid(hole)
-        area -= a_h
-        moment = moment - a_h * c_h
+        mh = cv2.moments(((hole - origin) * 1e3).astype(np.float32))
+        ah = abs(mh["m00"])
+        if ah >= 1e-9:
+            area -= ah
+            sx -= ah * mh["m10"] / mh["m00"]
+            sy -= ah * mh["m01"] / mh["m00"]
         hole_list.append(hole)
-    centroid = moment / area if area > 1e-12 else c_out
-    pts = ((outline - outline[0]) * 1e3).astype(np.float32)  # mm, local: float32 is enough
+    centroid = origin + np.array([sx / area, sy / area]) * 1e-3 if area > 1e-6 else c_out
+    area *= 1e-6
     (_, _), (w, h), ang = cv2.minAreaRect(pts)
     ang = math.radians(ang)
     if w < h:
         w, h, ang = h, w, ang + math.pi / 2
-    hull = cv2.convexHull(pts)
-    hull_area = cv2.contourArea(hull) * 1e-6
+    hull_area = cv2.contourArea(cv2.convexHull(pts)) * 1e-6
     return Footprint(
         outline=outline,
         holes=tuple(hole_list),

@@ -1,0 +1,219 @@
+"""Parts apart from the belt: background estimate, foreground mask, one blob per part.
+
+The background is learned from the frame itself: a median filter much wider than any
+part over a 1/8-scale copy (borders mirrored) estimates the empty belt, and whatever else
+surrounds it, under the frame's own lighting, so light gradients, spot lights and colour
+temperature need no calibration image. The foreground is the largest channel difference
+from it, thresholded (noise-adaptive: median + k * MAD; fixed; or Otsu) and opened. Each
+blob is then re-thresholded in its own bounding box at a fraction (``edge_level``) of its
+own contrast, and shadow pixels (the background darkened without a change of colour)
+are dropped, so the outline sits on the part's edge whatever its contrast.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from cell.vision._blob import Blob, make_blob
+from cell.vision._footprint import Geometry
+from cell.vision.settings import VisionSettings
+
+__all__: list[str] = []  # private to cell.vision
+
+_BG_SCALE = 8  # the background model's downscale factor
+_BG_MEDIAN = 15  # its median aperture at that scale (120 px at full scale)
+_K3 = np.ones((3, 3), np.uint8)
+_K13 = np.ones((1, 3), np.uint8)
+_LEVELS = np.arange(256)
+
+
+@dataclass
+class FrameView:
+    """One frame as the detector's steps share it.
+
+    ``img`` uint8 RGB (H, W, 3); ``bg`` its background estimate (same shape); ``dmax``
+    uint8 (H, W) the largest channel difference from it; ``mask`` uint8 (H, W) the
+    foreground (0/255) at ``threshold`` grey levels; ``backlit`` whether the background
+    is a bright light table; ``max_px``/``min_px`` the longest blob side (px) and the
+    smallest blob area (px^2) kept.
+    """
+
+    img: np.ndarray
+    bg: np.ndarray
+    dmax: np.ndarray
+    mask: np.ndarray
+    threshold: float
+    backlit: bool
+    geo: Geometry
+    settings: VisionSettings
+    max_px: int
+    min_px: float
+    _sigma: float | None = None
+
+    def noise_sigma(self) -> float:
+        """The frame's sensor noise (grey levels, green channel), from differences of pixels
+        two apart on every 16th row: robust (MAD), so edges and grain, a minority, do not
+        count. Computed on first use."""
+        if self._sigma is None:
+            rows = self.img[4::16, ::2, 1].astype(np.int16)
+            d = (rows[:, 1:] - rows[:, :-1]).ravel()
+            k = d.size // 2
+            mad = float(np.partition(np.abs(d - np.partition(d, k)[k]), k)[k])
+            self._sigma = 1.4826 * mad / math.sqrt(2)
+        return self._sigma
+
+
+def background(img: np.ndarray, settings: VisionSettings) -> tuple[np.ndarray, bool]:
+    """(background estimate (H, W, 3) uint8, back-lit?) of a uint8 RGB frame: a 15-wide
+    median (``cv2.medianBlur``) over every 8th pixel, borders mirrored, scaled back up
+    bilinearly. Back-lit when the background's median brightness reaches
+    ``settings.backlight_level`` and it is nearly colourless."""
+    h, w = img.shape[:2]
+    s = _BG_SCALE
+    small = np.ascontiguousarray(img[s // 2 :: s, s // 2 :: s])
+    r = _BG_MEDIAN // 2  # mirror the borders, so a window there sees a whole neighbourhood
+    padded = cv2.copyMakeBorder(small, r, r, r, r, cv2.BORDER_REFLECT_101)
+    bg_small = np.ascontiguousarray(cv2.medianBlur(padded, _BG_MEDIAN)[r:-r, r:-r])
+    probe = bg_small[::3, ::3].reshape(-1, 3)
+    hi, lo = probe.max(axis=1), probe.min(axis=1)
+    level = float(np.median(hi))
+    spread = float(np.median(hi - lo))
+    backlit = level >= settings.backlight_level and spread < 40
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
+    return bg, backlit
+
+
+def _max_channel_diff(img: np.ndarray, bg: np.ndarray) -> np.ndarray:
+    h, w = img.shape[:2]
+    diff = cv2.absdiff(img, bg).reshape(h, w * 3)
+    return np.ascontiguousarray(cv2.dilate(diff, _K13)[:, 1::3])
+
+
+def _median_mad(dmax: np.ndarray) -> tuple[float, float]:
+    """Median and MAD (scaled to a Gaussian sigma) of every 8th pixel, from its histogram."""
+    hist = np.bincount(dmax[4::8, 4::8].ravel(), minlength=256)
+    cum = np.cumsum(hist)
+    med = int(np.searchsorted(cum, (cum[-1] + 1) // 2))
+    dev = np.bincount(np.abs(_LEVELS - med), weights=hist, minlength=256)  # of |x - med|
+    cdev = np.cumsum(dev)
+    mad = int(np.searchsorted(cdev, (cdev[-1] + 1) // 2))
+    return float(med), mad * 1.4826
+
+
+def foreground(
+    img: np.ndarray, bg: np.ndarray, settings: VisionSettings
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """(difference image, foreground mask, threshold) for an RGB frame and its background.
+
+    The difference is the largest channel difference (grey levels). Only when the frame
+    is noisy (MAD above 2 grey levels) is the image box-filtered (``smooth``) first, so
+    clean frames keep sharp edges.
+    """
+    st = settings
+    dmax = _max_channel_diff(img, bg)
+    med, mad = _median_mad(dmax)
+    if st.smooth and mad > 2.0:  # noisy: average the image before differencing
+        dmax = _max_channel_diff(cv2.blur(img, (st.smooth, st.smooth)), bg)
+        med, mad = _median_mad(dmax)
+    if st.threshold_method == "fixed":
+        t = float(st.threshold_value)
+    elif st.threshold_method == "otsu":
+        otsu = cv2.threshold(dmax, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)[0]
+        t = max(float(otsu), float(st.otsu_floor))
+    else:  # "auto": noise-adaptive
+        t = max(float(st.threshold_value), med + st.noise_k * max(mad, 0.5))
+    mask = cv2.threshold(dmax, t, 255, cv2.THRESH_BINARY)[1]
+    return dmax, cv2.morphologyEx(mask, cv2.MORPH_OPEN, _K3), t
+
+
+def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
+    """Pixels that are the background darkened without a change of colour: shadow.
+
+    A shadow scales the light falling on the belt, so every channel drops by about the
+    same factor; a part changes the ratios (Cucchiara et al., *Detecting moving objects,
+    ghosts and shadows in video streams*, IEEE PAMI 2003: shadows keep chromaticity).
+    A shadow pixel is below 0.75 of the background in every channel and ``chroma`` bounds
+    the spread of the three ratios, relative to their largest; 0 = off.
+    """
+    if chroma <= 0:
+        return np.zeros(img.shape[:2], bool)
+    h, w = img.shape[:2]
+    ratio = cv2.divide(cv2.blur(img, (3, 3)), cv2.add(bg, 1), dtype=cv2.CV_32F)
+    ratio = ratio.reshape(h, w * 3)
+    rmax = cv2.dilate(ratio, _K13)[:, 1::3]  # max / min over each pixel's three channels
+    rmin = cv2.erode(ratio, _K13)[:, 1::3]
+    return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
+
+
+def find_blobs(view: FrameView) -> list[Blob]:
+    """Outer contours of the foreground with their holes, each refined in its own box
+    (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
+    edge), are left out."""
+    contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hier is None:
+        return []
+    hier = hier[0]
+    blobs = []
+    for i, c in enumerate(contours):
+        if len(c) < 24 or hier[i][3] != -1:
+            continue  # the smallest part's outline is some 80 px long
+        box = cv2.boundingRect(c)
+        if box[2] * box[3] < 20 or max(box[2], box[3]) > view.max_px:
+            continue
+        if cv2.contourArea(c) < view.min_px:
+            continue
+        blobs.extend(_refine(view, c, box))
+    return blobs
+
+
+def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> list[Blob]:
+    """The blob(s) of contour ``c`` re-thresholded at ``edge_level`` times its median
+    contrast (at least the frame's threshold), less shadow, in its bounding box."""
+    st = view.settings
+    h, w = view.mask.shape
+    mgn = st.border_margin
+    x, y, bw, bh = box
+    x0, y0 = max(x - 2, 0), max(y - 2, 0)
+    x1, y1 = min(x + bw + 2, w), min(y + bh + 2, h)
+    own = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.drawContours(own, [c], -1, 255, -1, offset=(-x0, -y0))
+    d = view.dmax[y0:y1, x0:x1]
+    inside = d[cv2.bitwise_and(own, view.mask[y0:y1, x0:x1]) > 0]
+    level = view.threshold
+    if inside.size:
+        half = inside.size // 2
+        level = max(level, st.edge_level * float(np.partition(inside, half)[half]))
+    keep = cv2.bitwise_and(cv2.dilate(own, _K3), cv2.threshold(d, level, 255, cv2.THRESH_BINARY)[1])
+    if not view.backlit:  # a light table casts no shadows; silhouettes are neutral
+        dark = shadow(view.img[y0:y1, x0:x1], view.bg[y0:y1, x0:x1], st.shadow_chroma)
+        keep[dark] = 0
+    sub = cv2.morphologyEx(keep, cv2.MORPH_OPEN, _K3)
+    cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hr is None:
+        return []
+    hr = hr[0]
+    out = []
+    labels = None
+    n_outer = int(np.count_nonzero(hr[:, 3] == -1))
+    for j, cj in enumerate(cs):
+        if hr[j][3] != -1 or len(cj) < 8:
+            continue
+        pts = cj.reshape(-1, 2)
+        bx, by = pts.min(axis=0) + (x0, y0)
+        ex, ey = pts.max(axis=0) + (x0, y0)
+        partial = bool(bx <= mgn or by <= mgn or ex + 1 >= w - mgn or ey + 1 >= h - mgn)
+        blob = make_blob(pts, cs, hr, j, (x0, y0), partial)
+        if n_outer == 1:
+            own_mask = sub
+        else:
+            if labels is None:
+                _, labels = cv2.connectedComponents(sub, connectivity=8)
+            px, py = pts[0]
+            own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
+        blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
+        out.append(blob)
+    return out

@@ -2,12 +2,13 @@
 
 The background is learned from the frame itself: a median filter much wider than any
 part over a 1/8-scale copy (borders mirrored) estimates the empty belt, and whatever else
-surrounds it, under the frame's own lighting, so light gradients, spot lights and colour
-temperature need no calibration image. The foreground is the largest channel difference
-from it, thresholded (noise-adaptive: median + k * MAD; fixed; or Otsu) and opened. Each
-blob is then re-thresholded in its own bounding box at a fraction (``edge_level``) of its
-own contrast, and shadow pixels (the background darkened without a change of colour)
-are dropped, so the outline sits on the part's edge whatever its contrast.
+surrounds it, under the frame's own lighting. The foreground is the largest channel
+difference from it at half scale (every other pixel), thresholded (noise-adaptive:
+median + k * MAD; fixed; or Otsu) and opened. Each blob is then refined at full scale in
+its own box only: the difference there is re-thresholded at a fraction (``edge_level``)
+of the blob's own contrast, and shadow pixels (the background darkened without a change
+of colour) are dropped, so the outline sits on the part's edge whatever its contrast.
+No full-scale operation runs on the whole frame.
 """
 
 from __future__ import annotations
@@ -25,8 +26,11 @@ from cell.vision.settings import VisionSettings
 __all__: list[str] = []  # private to cell.vision
 
 _BG_SCALE = 8  # the background model's downscale factor
+_BG_OFFSET = 4  # its pixel j sits at full-scale pixel 8 j + 4
 _BG_MEDIAN = 15  # its median aperture at that scale (120 px at full scale)
+_K2 = np.ones((2, 2), np.uint8)  # an opening at half scale that keeps a 4 px ring
 _K3 = np.ones((3, 3), np.uint8)
+_K5 = np.ones((5, 5), np.uint8)
 _K13 = np.ones((1, 3), np.uint8)
 _LEVELS = np.arange(256)
 
@@ -35,24 +39,32 @@ _LEVELS = np.arange(256)
 class FrameView:
     """One frame as the detector's steps share it.
 
-    ``img`` uint8 RGB (H, W, 3); ``bg`` its background estimate (same shape); ``dmax``
-    uint8 (H, W) the largest channel difference from it; ``mask`` uint8 (H, W) the
-    foreground (0/255) at ``threshold`` grey levels; ``backlit`` whether the background
-    is a bright light table; ``max_px``/``min_px`` the longest blob side (px) and the
-    smallest blob area (px^2) kept.
+    ``img`` uint8 RGB (H, W, 3); ``bg_small`` its background estimate at 1/8 scale;
+    ``dmax`` uint8 (H/2, W/2) the largest channel difference from it at half scale,
+    ``mask`` its foreground (0/255) at ``threshold`` grey levels; ``fg`` uint8 (H, W)
+    the full-scale foreground, filled in around each blob as it is refined; ``smooth``
+    the box filter applied before differencing (0: none); ``backlit`` whether the
+    background is a bright light table; ``max_px``/``min_px`` the longest blob side (px)
+    and the smallest blob area (px^2) kept, at full scale.
     """
 
     img: np.ndarray
-    bg: np.ndarray
+    bg_small: np.ndarray
     dmax: np.ndarray
     mask: np.ndarray
     threshold: float
+    smooth: int
     backlit: bool
     geo: Geometry
     settings: VisionSettings
     max_px: int
     min_px: float
+    fg: np.ndarray | None = None
     _sigma: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.fg is None:
+            self.fg = np.zeros(self.img.shape[:2], np.uint8)
 
     def noise_sigma(self) -> float:
         """The frame's sensor noise (grey levels, green channel), from differences of pixels
@@ -66,25 +78,36 @@ class FrameView:
             self._sigma = 1.4826 * mad / math.sqrt(2)
         return self._sigma
 
+    def background_at(self, x0: int, y0: int, x1: int, y1: int, step: int = 1) -> np.ndarray:
+        """The background estimate (uint8 RGB) of the window [y0:y1:step, x0:x1:step] at
+        full scale, interpolated bilinearly from ``bg_small`` (edges replicated)."""
+        return _bg_window(self.bg_small, x0, y0, x1, y1, step)
+
+
+def _bg_window(bg_small: np.ndarray, x0: int, y0: int, x1: int, y1: int, step: int) -> np.ndarray:
+    s, o = _BG_SCALE, _BG_OFFSET
+    m = np.array([[step / s, 0, (x0 - o) / s], [0, step / s, (y0 - o) / s]])
+    size = (-(-(x1 - x0) // step), -(-(y1 - y0) // step))
+    return cv2.warpAffine(bg_small, m, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                          borderMode=cv2.BORDER_REPLICATE)
+
 
 def background(img: np.ndarray, settings: VisionSettings) -> tuple[np.ndarray, bool]:
-    """(background estimate (H, W, 3) uint8, back-lit?) of a uint8 RGB frame: a 15-wide
-    median (``cv2.medianBlur``) over every 8th pixel, borders mirrored, scaled back up
-    bilinearly. Back-lit when the background's median brightness reaches
-    ``settings.backlight_level`` and it is nearly colourless."""
-    h, w = img.shape[:2]
-    s = _BG_SCALE
-    small = np.ascontiguousarray(img[s // 2 :: s, s // 2 :: s])
+    """(background estimate at 1/8 scale, uint8 RGB; back-lit?) of a uint8 RGB frame: a
+    15-wide median (``cv2.medianBlur``, 120 px at full scale, borders mirrored) over every
+    8th pixel. Back-lit when the background's median brightness reaches
+    ``settings.backlight_level`` and it is nearly colourless.
+    """
+    small = np.ascontiguousarray(img[_BG_OFFSET::_BG_SCALE, _BG_OFFSET::_BG_SCALE])
     r = _BG_MEDIAN // 2  # mirror the borders, so a window there sees a whole neighbourhood
     padded = cv2.copyMakeBorder(small, r, r, r, r, cv2.BORDER_REFLECT_101)
     bg_small = np.ascontiguousarray(cv2.medianBlur(padded, _BG_MEDIAN)[r:-r, r:-r])
-    probe = bg_small[::3, ::3].reshape(-1, 3)
+    probe = bg_small[::3, ::3].reshape(-1, 3)  # every 24 px
     hi, lo = probe.max(axis=1), probe.min(axis=1)
     level = float(np.median(hi))
     spread = float(np.median(hi - lo))
     backlit = level >= settings.backlight_level and spread < 40
-    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
-    return bg, backlit
+    return bg_small, backlit
 
 
 def _max_channel_diff(img: np.ndarray, bg: np.ndarray) -> np.ndarray:
@@ -94,8 +117,8 @@ def _max_channel_diff(img: np.ndarray, bg: np.ndarray) -> np.ndarray:
 
 
 def _median_mad(dmax: np.ndarray) -> tuple[float, float]:
-    """Median and MAD (scaled to a Gaussian sigma) of every 8th pixel, from its histogram."""
-    hist = np.bincount(dmax[4::8, 4::8].ravel(), minlength=256)
+    """Median and MAD (scaled to a Gaussian sigma) of every 4th pixel, from its histogram."""
+    hist = np.bincount(dmax[2::4, 2::4].ravel(), minlength=256)
     cum = np.cumsum(hist)
     med = int(np.searchsorted(cum, (cum[-1] + 1) // 2))
     dev = np.bincount(np.abs(_LEVELS - med), weights=hist, minlength=256)  # of |x - med|
@@ -105,19 +128,26 @@ def _median_mad(dmax: np.ndarray) -> tuple[float, float]:
 
 
 def foreground(
-    img: np.ndarray, bg: np.ndarray, settings: VisionSettings
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """(difference image, foreground mask, threshold) for an RGB frame and its background.
+    img: np.ndarray, bg_small: np.ndarray, settings: VisionSettings
+) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """(difference image, foreground mask, threshold, smoothing) at half scale (every
+    other pixel) for an RGB frame and its 1/8-scale background.
 
     The difference is the largest channel difference (grey levels). Only when the frame
     is noisy (MAD above 2 grey levels) is the image box-filtered (``smooth``) first, so
-    clean frames keep sharp edges.
+    clean frames keep sharp edges; the smoothing used is returned (0: none).
     """
     st = settings
-    dmax = _max_channel_diff(img, bg)
+    half = cv2.resize(img, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)  # img[::2, ::2]
+    h, w = half.shape[:2]
+    bg = _bg_window(bg_small, 0, 0, 2 * w, 2 * h, 2)
+    dmax = _max_channel_diff(half, bg)
     med, mad = _median_mad(dmax)
+    smooth = 0
     if st.smooth and mad > 2.0:  # noisy: average the image before differencing
-        dmax = _max_channel_diff(cv2.blur(img, (st.smooth, st.smooth)), bg)
+        smooth = st.smooth
+        k = max(smooth // 2, 1) | 1  # the same extent at half scale
+        dmax = _max_channel_diff(cv2.blur(half, (k, k)), bg)
         med, mad = _median_mad(dmax)
     if st.threshold_method == "fixed":
         t = float(st.threshold_value)
@@ -127,7 +157,7 @@ def foreground(
     else:  # "auto": noise-adaptive
         t = max(float(st.threshold_value), med + st.noise_k * max(mad, 0.5))
     mask = cv2.threshold(dmax, t, 255, cv2.THRESH_BINARY)[1]
-    return dmax, cv2.morphologyEx(mask, cv2.MORPH_OPEN, _K3), t
+    return dmax, cv2.morphologyEx(mask, cv2.MORPH_OPEN, _K2), t, smooth
 
 
 def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
@@ -150,8 +180,8 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
 
 
 def find_blobs(view: FrameView) -> list[Blob]:
-    """Outer contours of the foreground with their holes, each refined in its own box
-    (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
+    """Outer contours of the half-scale foreground, each refined at full scale in its own
+    box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
     edge), are left out."""
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
@@ -159,38 +189,55 @@ def find_blobs(view: FrameView) -> list[Blob]:
     hier = hier[0]
     blobs = []
     for i, c in enumerate(contours):
-        if len(c) < 24 or hier[i][3] != -1:
-            continue  # the smallest part's outline is some 80 px long
+        if len(c) < 12 or hier[i][3] != -1:
+            continue  # the smallest part's outline is some 80 px long (40 at half scale)
         box = cv2.boundingRect(c)
-        if box[2] * box[3] < 20 or max(box[2], box[3]) > view.max_px:
+        if box[2] * box[3] < 5 or 2 * max(box[2], box[3]) > view.max_px:
             continue
-        if cv2.contourArea(c) < view.min_px:
+        if 4 * cv2.contourArea(c) < view.min_px:
             continue
         blobs.extend(_refine(view, c, box))
     return blobs
 
 
 def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> list[Blob]:
-    """The blob(s) of contour ``c`` re-thresholded at ``edge_level`` times its median
-    contrast (at least the frame's threshold), less shadow, in its bounding box."""
+    """The blob(s) of half-scale contour ``c`` at full scale: the difference in its box
+    (and 8 px around it), thresholded at ``edge_level`` times its median contrast (at
+    least the frame's threshold), less shadow, near the contour's region."""
     st = view.settings
-    h, w = view.mask.shape
+    h, w = view.fg.shape
     mgn = st.border_margin
     x, y, bw, bh = box
-    x0, y0 = max(x - 2, 0), max(y - 2, 0)
-    x1, y1 = min(x + bw + 2, w), min(y + bh + 2, h)
-    own = np.zeros((y1 - y0, x1 - x0), np.uint8)
-    cv2.drawContours(own, [c], -1, 255, -1, offset=(-x0, -y0))
-    d = view.dmax[y0:y1, x0:x1]
-    inside = d[cv2.bitwise_and(own, view.mask[y0:y1, x0:x1]) > 0]
+    hx0, hy0 = max(x - 4, 0), max(y - 4, 0)  # the box and 4 px around it, at half scale
+    hx1, hy1 = min(x + bw + 4, view.mask.shape[1]), min(y + bh + 4, view.mask.shape[0])
+    x0, y0, x1, y1 = 2 * hx0, 2 * hy0, min(2 * hx1, w), min(2 * hy1, h)
+    img = view.img[y0:y1, x0:x1]
+    bg = view.background_at(x0, y0, x1, y1)
+    if view.smooth:
+        k = view.smooth
+        r = k // 2
+        xa, ya, xb, yb = max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, w), min(y1 + r, h)
+        blurred = cv2.blur(view.img[ya:yb, xa:xb], (k, k))
+        d = _max_channel_diff(np.ascontiguousarray(blurred[y0 - ya : y1 - ya, x0 - xa : x1 - xa]), bg)
+    else:
+        d = _max_channel_diff(img, bg)
+    fg = cv2.morphologyEx(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1],
+                          cv2.MORPH_OPEN, _K3)
+    view.fg[y0:y1, x0:x1] |= fg
+    # this blob's foreground at full scale: near its half-scale region, not a neighbour's
+    near = np.zeros((hy1 - hy0, hx1 - hx0), np.uint8)
+    cv2.drawContours(near, [c], -1, 255, -1, offset=(-hx0, -hy0))
+    near = cv2.resize(cv2.dilate(near, _K3), ((hx1 - hx0) * 2, (hy1 - hy0) * 2),
+                      interpolation=cv2.INTER_NEAREST)[: y1 - y0, : x1 - x0]
+    own = cv2.bitwise_and(fg, near)
+    inside = d[own > 0]
     level = view.threshold
     if inside.size:
         half = inside.size // 2
         level = max(level, st.edge_level * float(np.partition(inside, half)[half]))
     keep = cv2.bitwise_and(cv2.dilate(own, _K3), cv2.threshold(d, level, 255, cv2.THRESH_BINARY)[1])
     if not view.backlit:  # a light table casts no shadows; silhouettes are neutral
-        dark = shadow(view.img[y0:y1, x0:x1], view.bg[y0:y1, x0:x1], st.shadow_chroma)
-        keep[dark] = 0
+        keep[shadow(img, bg, st.shadow_chroma)] = 0
     sub = cv2.morphologyEx(keep, cv2.MORPH_OPEN, _K3)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
@@ -202,17 +249,17 @@ def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> l
     for j, cj in enumerate(cs):
         if hr[j][3] != -1 or len(cj) < 8:
             continue
-        pts = cj.reshape(-1, 2)
-        bx, by = pts.min(axis=0) + (x0, y0)
-        ex, ey = pts.max(axis=0) + (x0, y0)
+        pj = cj.reshape(-1, 2)
+        bx, by = pj.min(axis=0) + (x0, y0)
+        ex, ey = pj.max(axis=0) + (x0, y0)
         partial = bool(bx <= mgn or by <= mgn or ex + 1 >= w - mgn or ey + 1 >= h - mgn)
-        blob = make_blob(pts, cs, hr, j, (x0, y0), partial)
+        blob = make_blob(pj, cs, hr, j, (x0, y0), partial)
         if n_outer == 1:
             own_mask = sub
         else:
             if labels is None:
                 _, labels = cv2.connectedComponents(sub, connectivity=8)
-            px, py = pts[0]
+            px, py = pj[0]
             own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
         blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
         out.append(blob)

@@ -3,26 +3,27 @@
 What the detector uses: the image, the camera model (intrinsics, distortion, pose), the
 ``VisionSettings`` (including the belt's nominal reflectance, the white-balance reference)
 and the catalogue's nominal part geometry and finishes. It never reads the simulator.
-Its background model is learned from the frame itself: a median filter much wider than
-any part over a 1/8-scale copy (borders mirrored) estimates the empty belt, and whatever
-else surrounds it, under the frame's own lighting, so light gradients, spot lights and
-colour temperature need no calibration image. No second image is used.
+Its background model is learned from the frame itself (a median filter much wider than
+any part over a 1/8-scale copy), so light gradients, spot lights and colour temperature
+need no calibration image. No second image is used.
 
-Pipeline (each step a textbook technique):
-1. background estimate (median filter) and per-pixel colour difference (largest channel);
-   a noisy frame (MAD > 2 grey levels) is box-filtered first;
-2. noise-adaptive threshold (median + k * MAD of the difference, with a floor), or fixed
-   or Otsu (``VisionSettings.threshold_method``); an opening removes specks; a frame whose
-   background is a bright light table is taken as back-lit;
-3. contours with holes (``cv2.findContours``, two-level hierarchy); each blob is then
-   re-thresholded at a fraction (``edge_level``) of its own contrast, and shadow pixels
-   (darker than the background by one factor in all channels) are dropped;
-4. each outline is mapped onto the table plane per candidate kind: a contour point whose
-   outward normal faces away from the camera's nadir is a top edge, the others bottom
-   edges (a prism seen off-axis shows a wall), so the footprint is free of perspective;
-5. kind from footprint descriptors (:mod:`cell.vision.kind`); a blob that fits no kind is
-   cut into touching parts (convexity-defect cuts, distance-transform cores), recursively;
-6. material from grain and white-balanced albedo (:mod:`cell.vision.material`); yaw per
+Pipeline (each step a textbook technique, each in its own module):
+1. background estimate and per-pixel colour difference (largest channel) at half scale;
+   a noisy frame (MAD > 2 grey levels) is box-filtered first; noise-adaptive threshold
+   (median + k * MAD, with a floor), or fixed or Otsu; an opening removes specks; a
+   frame whose background is a bright light table is taken as back-lit
+   (:mod:`cell.vision._segment`);
+2. contours with holes; each blob is refined at full scale in its own box only:
+   re-thresholded at a fraction (``edge_level``) of its own contrast, shadow pixels
+   (darker than the background by one factor in all channels) dropped;
+3. the outline is mapped onto the table plane: a contour point whose outward normal faces
+   away from the camera's nadir is a top edge, the others bottom edges (a prism seen
+   off-axis shows a wall), so the footprint is free of perspective; the kind is chosen
+   on a mid-height footprint and the outline mapped again only for the best kind(s)
+   (:mod:`cell.vision._footprint`, :mod:`cell.vision.kind`);
+4. a blob that fits no kind is cut into touching parts (convexity-defect cuts,
+   distance-transform cores), recursively (:mod:`cell.vision._split`);
+5. material from grain and white-balanced albedo (:mod:`cell.vision.material`); yaw per
    kind modulo its symmetry; position the footprint centroid on the table plane (for a
    bolt, a point fixed relative to its two ends). A blob at the image border is reported
    ``partial`` with kind ``unknown`` and no position.
@@ -114,10 +115,10 @@ class PartDetector:
             raise VisionError(f"argument 'image': too small ({w}x{h}), need at least 16x16")
         st = self.settings
         img = np.ascontiguousarray(image)
-        bg, backlit = background(img, st)
-        dmax, mask, t = foreground(img, bg, st)
+        bg_small, backlit = background(img, st)
+        dmax, mask, t, smooth = foreground(img, bg_small, st)
         geo = Geometry(camera, st.plane_z)
-        view = FrameView(img, bg, dmax, mask, t, backlit, geo, st,
+        view = FrameView(img, bg_small, dmax, mask, t, smooth, backlit, geo, st,
                          max_px=int(2.5 * _LONGEST / geo.m_per_px),
                          min_px=st.min_area_mm2 * 1e-6 / geo.m_per_px**2)
         found: list[tuple[Blob, str, float, Fit]] = []
@@ -161,11 +162,12 @@ class PartDetector:
 def _belt_near(view: FrameView, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
     """The belt's colour next to a part: the mean of the background pixels in a window
     around it (the median-filtered estimate is biased near a part in a noisy frame)."""
-    h, w = view.mask.shape
+    h, w = view.fg.shape
     xa, ya, xb, yb = max(x0 - 6, 0), max(y0 - 6, 0), min(x1 + 6, w), min(y1 + 6, h)
-    free = cv2.bitwise_not(view.mask[ya:yb, xa:xb])
+    free = cv2.bitwise_not(view.fg[ya:yb, xa:xb])
     if cv2.countNonZero(free) < 30:
-        return view.bg[min((y0 + y1) // 2, h - 1), min((x0 + x1) // 2, w - 1)]
+        u, v = min((x0 + x1) // 2, w - 1), min((y0 + y1) // 2, h - 1)
+        return view.background_at(u, v, u + 1, v + 1)[0, 0]
     return np.array(cv2.mean(view.img[ya:yb, xa:xb], mask=free)[:3])
 
 

@@ -149,3 +149,54 @@ def test_detection_to_dict_is_json_ready(spread):
     out = d.to_dict()
     assert set(out) >= {"id", "material", "kind", "centroid", "yaw", "position", "size", "partial"}
     assert isinstance(out["centroid"], list)
+
+
+# --- the detector's private steps, against references -----------------------------------
+
+
+def test_background_window_interpolates_the_small_estimate_at_its_samples():
+    """Full-scale background at the sample positions (8 j + 4) is the 1/8-scale value;
+    between them it is bilinear, as cv2.resize would give."""
+    from cell.vision._segment import _bg_window
+
+    rng = np.random.default_rng(3)
+    small = rng.integers(0, 256, (12, 16, 3), dtype=np.uint8)
+    full = _bg_window(small, 0, 0, 128, 96, 1).astype(int)
+    assert np.abs(full[4:92:8, 4:124:8] - small[:11, :15]).max() <= 1
+    mid = (small[2, 3].astype(int) + small[2, 4]) / 2  # half-way between two samples
+    assert np.abs(full[2 * 8 + 4, 3 * 8 + 8] - mid).max() <= 1
+    half = _bg_window(small, 0, 0, 128, 96, 2).astype(int)  # every other pixel
+    assert half.shape == (48, 64, 3)
+    assert np.abs(half - full[::2, ::2]).max() <= 1
+
+
+def test_median_and_mad_from_histogram_match_numpy():
+    from cell.vision._segment import _median_mad
+
+    rng = np.random.default_rng(4)
+    img = np.clip(rng.normal(20, 5, (96, 128)), 0, 255).astype(np.uint8)
+    med, mad = _median_mad(img)
+    sample = np.sort(img[2::4, 2::4].ravel())
+    lower_median = float(sample[(sample.size - 1) // 2])
+    dev = np.sort(np.abs(sample.astype(int) - int(med)))
+    assert med == lower_median
+    assert mad == pytest.approx(dev[(dev.size - 1) // 2] * 1.4826)
+
+
+def test_outline_normals_point_out_of_the_region_and_into_holes():
+    import cv2
+
+    from cell.vision._blob import blobs_of_mask
+
+    mask = np.zeros((60, 60), np.uint8)
+    cv2.rectangle(mask, (10, 10), (49, 49), 255, -1)
+    cv2.rectangle(mask, (25, 25), (34, 34), 0, -1)
+    (blob,) = blobs_of_mask(mask, (100, 200))
+    centre = np.array([129.5, 229.5])  # of both squares, in the frame
+    assert np.all(np.einsum("ij,ij->i", blob.normals, blob.contour - centre) > 0)
+    (hole, hole_n), = blob.holes
+    assert np.all(np.einsum("ij,ij->i", hole_n, hole - centre) < 0)  # into the hole
+    area = cv2.contourArea(blob.contour.astype(np.float32)) - cv2.contourArea(
+        hole.astype(np.float32))
+    assert area == pytest.approx(cv2.countNonZero(mask), rel=0.02)  # half-pixel shift
+    assert blob.mask_box == (110, 210, 40, 40)

@@ -29,10 +29,12 @@ class Blob:
     splits: np.ndarray | None = None
 
 
-def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool) -> Blob:
+def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool,
+              box: tuple[int, int, int, int] | None = None) -> Blob:
     """The blob of outer contour ``i`` of a ``cv2.findContours`` result (RETR_CCOMP), with
     its holes (children of at least 6 points); ``pts`` is that contour as (N, 2) int
-    pixels of a crop at ``offset`` (x0, y0) in the frame."""
+    pixels of a crop at ``offset`` (x0, y0) in the frame; ``box`` its bounding box in the
+    frame (x, y, w, h) if known."""
     ox, oy = offset
     pts = pts + (ox, oy) if (ox or oy) else pts
     outline, normals = outline_normals(pts, hole=False)
@@ -44,9 +46,9 @@ def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool) ->
             hc = hc.reshape(-1, 2)
             holes.append(outline_normals(hc + (ox, oy) if (ox or oy) else hc, hole=True))
         j = hier[j][0]
-    x0, y0 = pts.min(axis=0)
-    x1, y1 = pts.max(axis=0)
-    box = (int(x0), int(y0), int(x1 - x0 + 1), int(y1 - y0 + 1))
+    if box is None:
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        box = (bx + ox, by + oy, bw, bh)
     return Blob(outline, normals, holes, box, partial)
 
 

@@ -47,6 +47,7 @@ class Geometry:
         self.plane_z = plane_z
         self.R = camera.T_world_camera[:3, :3]
         self.o = camera.T_world_camera[:3, 3]
+        self._distorted = bool(np.any(camera.dist))
         nad = camera.K @ (self.R.T @ np.array([0.0, 0.0, -1.0]))
         self.nadir = nad[:2] / nad[2] if nad[2] > 1e-9 else None
         c = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])
@@ -56,7 +57,7 @@ class Geometry:
     def rays(self, pts: np.ndarray) -> np.ndarray:
         """World directions (N, 3) of the rays through pixels (N, 2), lens distortion removed."""
         K, dist = self.camera.K, self.camera.dist
-        if np.any(dist):  # as cell.vision.geometry.pixel_to_table: iterated to 1e-14
+        if self._distorted:  # as cell.vision.geometry.pixel_to_table: iterated to 1e-14
             norm = cv2.undistortPointsIter(
                 pts.reshape(-1, 1, 2).astype(np.float64), K, dist, np.eye(3), np.eye(3),
                 (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14),

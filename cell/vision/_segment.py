@@ -26,7 +26,6 @@ from cell.vision.settings import VisionSettings
 __all__: list[str] = []  # private to cell.vision
 
 _BG_SCALE = 8  # the background model's downscale factor
-_BG_OFFSET = 4  # its pixel j sits at full-scale pixel 8 j + 4
 _BG_MEDIAN = 15  # its median aperture at that scale (120 px at full scale)
 _K2 = np.ones((2, 2), np.uint8)  # an opening at half scale that keeps a 4 px ring
 _K3 = np.ones((3, 3), np.uint8)
@@ -78,18 +77,17 @@ class FrameView:
             self._sigma = 1.4826 * mad / math.sqrt(2)
         return self._sigma
 
-    def background_at(self, x0: int, y0: int, x1: int, y1: int, step: int = 1) -> np.ndarray:
-        """The background estimate (uint8 RGB) of the window [y0:y1:step, x0:x1:step] at
-        full scale, interpolated bilinearly from ``bg_small`` (edges replicated)."""
-        return _bg_window(self.bg_small, x0, y0, x1, y1, step)
-
-
-def _bg_window(bg_small: np.ndarray, x0: int, y0: int, x1: int, y1: int, step: int) -> np.ndarray:
-    s, o = _BG_SCALE, _BG_OFFSET
-    m = np.array([[step / s, 0, (x0 - o) / s], [0, step / s, (y0 - o) / s]])
-    size = (-(-(x1 - x0) // step), -(-(y1 - y0) // step))
-    return cv2.warpAffine(bg_small, m, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                          borderMode=cv2.BORDER_REPLICATE)
+    def background_at(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        """The background estimate (uint8 RGB) of the window [y0:y1, x0:x1] at full scale:
+        what ``cv2.resize`` of the whole 1/8-scale estimate to full scale (bilinear) gives
+        there, computed from the few small pixels around the window only."""
+        s = _BG_SCALE
+        hs, ws = self.bg_small.shape[:2]
+        i0, j0 = max(y0 // s - 1, 0), max(x0 // s - 1, 0)
+        i1, j1 = min(-(-y1 // s) + 1, hs), min(-(-x1 // s) + 1, ws)
+        block = self.bg_small[i0:i1, j0:j1]
+        up = cv2.resize(block, ((j1 - j0) * s, (i1 - i0) * s), interpolation=cv2.INTER_LINEAR)
+        return up[y0 - i0 * s : y1 - i0 * s, x0 - j0 * s : x1 - j0 * s]
 
 
 def background(img: np.ndarray, settings: VisionSettings) -> tuple[np.ndarray, bool]:
@@ -98,7 +96,7 @@ def background(img: np.ndarray, settings: VisionSettings) -> tuple[np.ndarray, b
     8th pixel. Back-lit when the background's median brightness reaches
     ``settings.backlight_level`` and it is nearly colourless.
     """
-    small = np.ascontiguousarray(img[_BG_OFFSET::_BG_SCALE, _BG_OFFSET::_BG_SCALE])
+    small = np.ascontiguousarray(img[_BG_SCALE // 2 :: _BG_SCALE, _BG_SCALE // 2 :: _BG_SCALE])
     r = _BG_MEDIAN // 2  # mirror the borders, so a window there sees a whole neighbourhood
     padded = cv2.copyMakeBorder(small, r, r, r, r, cv2.BORDER_REFLECT_101)
     bg_small = np.ascontiguousarray(cv2.medianBlur(padded, _BG_MEDIAN)[r:-r, r:-r])
@@ -140,7 +138,7 @@ def foreground(
     st = settings
     half = cv2.resize(img, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)  # img[::2, ::2]
     h, w = half.shape[:2]
-    bg = _bg_window(bg_small, 0, 0, 2 * w, 2 * h, 2)
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
     dmax = _max_channel_diff(half, bg)
     med, mad = _median_mad(dmax)
     smooth = 0
@@ -182,22 +180,36 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
 def find_blobs(view: FrameView) -> list[Blob]:
     """Outer contours of the half-scale foreground, each refined at full scale in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
-    edge), are left out."""
+    edge), are left out. A part touching such a long blob is cut off it by an opening."""
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    hier = hier[0]
     blobs = []
+    for c in _part_contours(view, contours, hier[0], (0, 0), cut=True):
+        blobs.extend(_refine(view, c, cv2.boundingRect(c)))
+    return blobs
+
+
+def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):
+    """Half-scale outer contours that may be parts (in the mask's coordinates). A contour
+    longer than any part is opened (3x3) and its pieces taken instead, once (``cut``)."""
     for i, c in enumerate(contours):
         if len(c) < 12 or hier[i][3] != -1:
             continue  # the smallest part's outline is some 80 px long (40 at half scale)
-        box = cv2.boundingRect(c)
-        if box[2] * box[3] < 5 or 2 * max(box[2], box[3]) > view.max_px:
+        x, y, bw, bh = cv2.boundingRect(c)
+        if bw * bh < 5 or 4 * cv2.contourArea(c) < view.min_px:
             continue
-        if 4 * cv2.contourArea(c) < view.min_px:
-            continue
-        blobs.extend(_refine(view, c, box))
-    return blobs
+        if 2 * max(bw, bh) <= view.max_px:
+            yield c + offset if offset != (0, 0) else c
+        elif cut:  # a rail or an edge, perhaps with parts touching it: cut them apart
+            ox, oy = offset[0] + x, offset[1] + y
+            sub = np.zeros((bh, bw), np.uint8)
+            cv2.drawContours(sub, [c], -1, 255, -1, offset=(-x, -y))
+            sub = cv2.bitwise_and(sub, view.mask[oy : oy + bh, ox : ox + bw])
+            sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, _K3)
+            cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+            if hr is not None:
+                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False)
 
 
 def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> list[Blob]:
@@ -249,11 +261,13 @@ def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> l
     for j, cj in enumerate(cs):
         if hr[j][3] != -1 or len(cj) < 8:
             continue
+        if cv2.contourArea(cj) < view.min_px / 3:
+            continue  # a fragment (at least 3 px wide after the opening) far below a part
         pj = cj.reshape(-1, 2)
-        bx, by = pj.min(axis=0) + (x0, y0)
-        ex, ey = pj.max(axis=0) + (x0, y0)
-        partial = bool(bx <= mgn or by <= mgn or ex + 1 >= w - mgn or ey + 1 >= h - mgn)
-        blob = make_blob(pj, cs, hr, j, (x0, y0), partial)
+        bx, by, bbw, bbh = cv2.boundingRect(cj)
+        bx, by = bx + x0, by + y0
+        partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
+        blob = make_blob(pj, cs, hr, j, (x0, y0), partial, box=(bx, by, bbw, bbh))
         if n_outer == 1:
             own_mask = sub
         else:

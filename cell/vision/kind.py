@@ -86,47 +86,48 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
     outline = np.asarray(outline, dtype=np.float64)
     if outline.ndim != 2 or outline.shape[1] != 2 or outline.shape[0] < 3:
         raise VisionError(f"footprint: outline must be (N>=3, 2), got shape {outline.shape}")
-    origin = outline[0]
+    ox, oy = float(outline[0, 0]), float(outline[0, 1])
+    origin = (ox, oy)
     pts = ((outline - origin) * 1e3).astype(np.float32)  # mm, local
     m = cv2.moments(pts)
-    a_out = abs(m["m00"])
-    if a_out < 1e-9:
-        area_out, c_out = 0.0, outline.mean(axis=0)
-        mx = my = 0.0
-    else:
-        area_out = a_out * 1e-6
-        mx, my = m["m10"] / m["m00"], m["m01"] / m["m00"]
-        c_out = origin + np.array([mx, my]) * 1e-3
-    area, sx, sy = a_out, a_out * mx, a_out * my  # mm^2 and first moments, local
+    area = a_out = abs(m["m00"])  # mm^2
+    sx = sy = 0.0  # first moments (mm^3), local
+    if a_out >= 1e-9:
+        sign = 1.0 if m["m00"] > 0 else -1.0
+        sx, sy = sign * m["m10"], sign * m["m01"]
     hole_list = []
     for hole in holes:
         hole = np.asarray(hole, dtype=np.float64)
         if hole.shape[0] < 3:
             continue
         mh = cv2.moments(((hole - origin) * 1e3).astype(np.float32))
-        ah = abs(mh["m00"])
-        if ah >= 1e-9:
-            area -= ah
-            sx -= ah * mh["m10"] / mh["m00"]
-            sy -= ah * mh["m01"] / mh["m00"]
+        if abs(mh["m00"]) >= 1e-9:
+            sign = 1.0 if mh["m00"] > 0 else -1.0
+            area -= sign * mh["m00"]
+            sx -= sign * mh["m10"]
+            sy -= sign * mh["m01"]
         hole_list.append(hole)
-    centroid = origin + np.array([sx / area, sy / area]) * 1e-3 if area > 1e-6 else c_out
-    area *= 1e-6
+    if area > 1e-6:
+        centroid = np.array((ox + sx / area * 1e-3, oy + sy / area * 1e-3))
+    elif a_out >= 1e-9:
+        centroid = np.array((ox + sx / a_out * 1e-3, oy + sy / a_out * 1e-3))
+    else:
+        centroid = outline.mean(axis=0)
     (_, _), (w, h), ang = cv2.minAreaRect(pts)
     ang = math.radians(ang)
     if w < h:
         w, h, ang = h, w, ang + math.pi / 2
-    hull_area = cv2.contourArea(cv2.convexHull(pts)) * 1e-6
+    hull_area = cv2.contourArea(cv2.convexHull(pts))  # mm^2
     return Footprint(
         outline=outline,
         holes=tuple(hole_list),
-        area=float(max(area, 0.0)),
+        area=max(area, 0.0) * 1e-6,
         centroid=centroid,
         length=float(w) * 1e-3,
         width=float(h) * 1e-3,
-        rect_angle=float(math.atan2(math.sin(ang), math.cos(ang))),
-        hole_fraction=float(1.0 - area / area_out) if area_out > 0 else 0.0,
-        solidity=float(area_out / hull_area) if hull_area > 0 else 0.0,
+        rect_angle=math.atan2(math.sin(ang), math.cos(ang)),
+        hole_fraction=1.0 - area / a_out if a_out > 0 else 0.0,
+        solidity=a_out / hull_area if hull_area > 0 else 0.0,
     )
 
 

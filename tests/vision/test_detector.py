@@ -154,20 +154,21 @@ def test_detection_to_dict_is_json_ready(spread):
 # --- the detector's private steps, against references -----------------------------------
 
 
-def test_background_window_interpolates_the_small_estimate_at_its_samples():
-    """Full-scale background at the sample positions (8 j + 4) is the 1/8-scale value;
-    between them it is bilinear, as cv2.resize would give."""
-    from cell.vision._segment import _bg_window
+def test_background_window_is_the_full_scale_background_there():
+    """The background of a window, from the small pixels around it only, is what scaling
+    the whole 1/8-scale estimate up to full scale (cv2.resize, bilinear) gives there."""
+    import cv2
+
+    from cell.vision._segment import FrameView
 
     rng = np.random.default_rng(3)
-    small = rng.integers(0, 256, (12, 16, 3), dtype=np.uint8)
-    full = _bg_window(small, 0, 0, 128, 96, 1).astype(int)
-    assert np.abs(full[4:92:8, 4:124:8] - small[:11, :15]).max() <= 1
-    mid = (small[2, 3].astype(int) + small[2, 4]) / 2  # half-way between two samples
-    assert np.abs(full[2 * 8 + 4, 3 * 8 + 8] - mid).max() <= 1
-    half = _bg_window(small, 0, 0, 128, 96, 2).astype(int)  # every other pixel
-    assert half.shape == (48, 64, 3)
-    assert np.abs(half - full[::2, ::2]).max() <= 1
+    small = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    full = cv2.resize(small, (640, 480), interpolation=cv2.INTER_LINEAR)
+    view = FrameView(np.zeros((480, 640, 3), np.uint8), small, None, None, 10.0, 0, False,
+                     None, VisionSettings(), 100, 10.0)
+    for x0, y0, x1, y1 in ((0, 0, 37, 21), (100, 50, 180, 130), (601, 455, 640, 480),
+                           (8, 8, 9, 9)):
+        assert np.array_equal(view.background_at(x0, y0, x1, y1), full[y0:y1, x0:x1])
 
 
 def test_median_and_mad_from_histogram_match_numpy():

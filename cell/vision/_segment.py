@@ -144,8 +144,9 @@ def foreground(
     smooth = 0
     if st.smooth and mad > 2.0:  # noisy: average the image before differencing
         smooth = st.smooth
-        k = max(smooth // 2, 1) | 1  # the same extent at half scale
-        dmax = _max_channel_diff(cv2.blur(half, (k, k)), bg)
+        blurred = cv2.blur(img, (smooth, smooth))  # at full scale, as each blob's box is
+        dmax = _max_channel_diff(
+            cv2.resize(blurred, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST), bg)
         med, mad = _median_mad(dmax)
     if st.threshold_method == "fixed":
         t = float(st.threshold_value)

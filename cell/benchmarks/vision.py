@@ -188,11 +188,15 @@ def _score_frame(world, frame_seg, dets, stats: dict) -> None:
     stats["touching_split"] += sum(1 for a, b in pairs if a in matched and b in matched)
 
 
-def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int = SEED_BASE) -> dict:
+def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int = SEED_BASE,
+        parts: int = _PARTS_PER_SCENE) -> dict:
     """Score the detector on ``scenes`` scenes per lighting preset; returns the report.
 
-    Scene ``i`` uses seed ``seed_base + i`` (keep it at 1000 or above: tests use lower).
+    Scene ``i`` uses seed ``seed_base + i`` (keep it at 1000 or above: tests use lower) and
+    holds ``parts`` parts (8 by default: a crowded belt; 1 to 3 is a pick-zone frame).
     """
+    if not 1 <= parts <= 20:
+        raise ValueError(f"parts: must be 1 to 20, got {parts}")
     from cell.sim import World, layout
 
     cv2.setNumThreads(1)
@@ -208,7 +212,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
     }
     for i in range(scenes):
         seed = seed_base + i
-        sc = scenario_from_dict({"seed": seed, "parts": {"count": _PARTS_PER_SCENE}})
+        sc = scenario_from_dict({"seed": seed, "parts": {"count": parts}})
         world = World.build(sc, arm=False)
         try:
             _place_scene(world, np.random.default_rng(seed), layout)
@@ -229,10 +233,10 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
                 _score_frame(world, seg, dets, s)
         finally:
             world.close()
-    return _summarise(stats, scenes, seed_base)
+    return _summarise(stats, scenes, seed_base, parts)
 
 
-def _summarise(stats: dict, scenes: int, seed_base: int) -> dict:
+def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER_SCENE) -> dict:
     rows = {}
     for preset, s in stats.items():
         n = max(s["n"], 1)
@@ -262,7 +266,7 @@ def _summarise(stats: dict, scenes: int, seed_base: int) -> dict:
             "material_errors": sorted(set(s["material_errors"]))[:10],
             "kind_errors": sorted(set(s["kind_errors"]))[:10],
         }
-    return {"scenes_per_preset": scenes, "parts_per_scene": _PARTS_PER_SCENE,
+    return {"scenes_per_preset": scenes, "parts_per_scene": parts,
             "seed_base": seed_base, "required": _REQUIRED, "presets": rows}
 
 
@@ -297,11 +301,16 @@ def main(argv: list[str]) -> int:
                         help="scenes per preset (default 30: 240 parts per preset)")
     parser.add_argument("--seed-base", type=int, default=SEED_BASE,
                         help=f"first scene seed (default {SEED_BASE}; at least 1000, tests use less)")
+    parser.add_argument("--parts", type=int, default=_PARTS_PER_SCENE,
+                        help=f"parts per scene (default {_PARTS_PER_SCENE}; 1 to 3 is a pick-zone "
+                        "frame)")
     args = parser.parse_args(argv)
+    if not 1 <= args.parts <= 20:
+        parser.error("--parts must be 1 to 20")
     scenes = args.scenes or (2 if args.quick else 30)
     if args.seed_base < 1000:
         parser.error("--seed-base must be at least 1000 (seeds below are the tests')")
-    report = run(scenes=scenes, seed_base=args.seed_base)
+    report = run(scenes=scenes, seed_base=args.seed_base, parts=args.parts)
     if args.json:
         print(json.dumps(report, indent=2))
     else:

@@ -25,3 +25,18 @@ def test_quick_run_reports_each_preset():
 def test_cli_json(capsys):
     assert main(["--scenes", "1", "--json"]) == 0
     assert "presets" in json.loads(capsys.readouterr().out)
+
+
+def test_pick_zone_frames_with_fewer_parts():
+    report = run(scenes=1, parts=2)
+    assert report["parts_per_scene"] == 2
+    for preset, r in report["presets"].items():
+        assert 0 < r["parts"] + r["missed"] + r["partial_ok"] + r["partial_wrong"] <= 2, preset
+        assert r["latency_ms"] > 0
+
+
+def test_cli_rejects_a_bad_part_count():
+    import pytest
+
+    with pytest.raises(SystemExit):
+        main(["--scenes", "1", "--parts", "0"])

@@ -32,6 +32,7 @@ _K3 = np.ones((3, 3), np.uint8)
 _K5 = np.ones((5, 5), np.uint8)
 _K13 = np.ones((1, 3), np.uint8)
 _LEVELS = np.arange(256)
+_DIFFS = np.arange(511)
 
 
 @dataclass
@@ -71,9 +72,13 @@ class FrameView:
         count. Computed on first use."""
         if self._sigma is None:
             rows = self.img[4::16, ::2, 1].astype(np.int16)
-            d = (rows[:, 1:] - rows[:, :-1]).ravel()
-            k = d.size // 2
-            mad = float(np.partition(np.abs(d - np.partition(d, k)[k]), k)[k])
+            d = (rows[:, 1:] - rows[:, :-1]).ravel() + 255  # 0..510
+            hist = np.bincount(d, minlength=511)
+            cum = np.cumsum(hist)
+            half = d.size // 2 + 1  # the upper median, as np.partition(d, d.size // 2)
+            med = int(np.searchsorted(cum, half))
+            dev = np.bincount(np.abs(_DIFFS - med), weights=hist, minlength=511)
+            mad = float(np.searchsorted(np.cumsum(dev), half))
             self._sigma = 1.4826 * mad / math.sqrt(2)
         return self._sigma
 
@@ -102,8 +107,9 @@ def background(img: np.ndarray, settings: VisionSettings) -> tuple[np.ndarray, b
     bg_small = np.ascontiguousarray(cv2.medianBlur(padded, _BG_MEDIAN)[r:-r, r:-r])
     probe = bg_small[::3, ::3].reshape(-1, 3)  # every 24 px
     hi, lo = probe.max(axis=1), probe.min(axis=1)
-    level = float(np.median(hi))
-    spread = float(np.median(hi - lo))
+    k = hi.size // 2  # upper median (as np.median for odd counts)
+    level = float(np.partition(hi, k)[k])
+    spread = float(np.partition(hi - lo, k)[k])
     backlit = level >= settings.backlight_level and spread < 40
     return bg_small, backlit
 
@@ -202,7 +208,7 @@ def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, 
             continue
         if 2 * max(bw, bh) <= view.max_px:
             yield c + offset if offset != (0, 0) else c
-        elif cut:  # a rail or an edge, perhaps with parts touching it: cut them apart
+        elif cut and min(bw, bh) >= 8:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
             sub = np.zeros((bh, bw), np.uint8)
             cv2.drawContours(sub, [c], -1, 255, -1, offset=(-x, -y))

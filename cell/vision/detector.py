@@ -117,7 +117,7 @@ class PartDetector:
         img = np.ascontiguousarray(image)
         bg_small, backlit = background(img, st)
         dmax, mask, t, smooth = foreground(img, bg_small, st)
-        geo = Geometry(camera, st.plane_z)
+        geo = self._geometry(camera)
         view = FrameView(img, bg_small, dmax, mask, t, smooth, backlit, geo, st,
                          max_px=int(2.5 * _LONGEST / geo.m_per_px),
                          min_px=st.min_area_mm2 * 1e-6 / geo.m_per_px**2)
@@ -130,6 +130,17 @@ class PartDetector:
             material, m_conf = _material(view, blob)
             out.append(_make_detection(i, blob, kind, conf, res, material, m_conf))
         return out
+
+    def _geometry(self, camera: CameraModel) -> Geometry:
+        """The camera's ray geometry, kept while frames come from an equal camera model."""
+        key = (camera.K, camera.dist, camera.T_world_camera)
+        cached = getattr(self, "_geo", None)
+        if cached is not None and all(np.array_equal(a, b) for a, b in zip(cached[0], key,
+                                                                          strict=True)):
+            return cached[1]
+        geo = Geometry(camera, self.settings.plane_z)
+        self._geo = (tuple(np.array(a, copy=True) for a in key), geo)
+        return geo
 
     def _interpret(self, blob: Blob, view: FrameView) -> list[tuple[Blob, str, float, Fit]]:
         """The part(s) in one blob: one when a kind fits it, several when it splits into

@@ -52,7 +52,7 @@ class Footprint:
     ``rect_angle`` the direction of its long side (rad); ``hole_fraction`` the holes'
     area over the outline's area; ``solidity`` the outline's area over its hull's area;
     ``facets6`` the strength (0..1) of six-fold flats: the 6th circular harmonic of the
-    outline's chords of 8 points (about 0.5 for a rendered hex nut, below 0.2 for a circle).
+    outline's chord directions (about 0.6 for a rendered hex nut, below 0.15 for a circle).
     """
 
     outline: np.ndarray
@@ -68,7 +68,7 @@ class Footprint:
     @functools.cached_property
     def facets6(self) -> float:
         """Six-fold facet strength (0..1), computed on first use."""
-        return _facets(self.outline, 6, _FACET_STEP)
+        return _facets(self.outline, 6)
 
 
 def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarray] = ()) -> Footprint:
@@ -142,13 +142,9 @@ def _facets(outline: np.ndarray, n: int, step: int = 5) -> float:
     return float(abs(np.sum(length * u**n)) / total)
 
 
-# Six-fold facet strength expected of the round kinds, from chords of 8 outline points:
-# long enough that pixel noise on a dim frame's outline averages out (with 5-point chords a
-# few dim hex nuts read 0.08, as round as a washer). Medians of rendered, outlined parts at
-# 1.65 px/mm (bench seeds): regular hexagon 0.5, circles 0.06. Other kinds are told apart
-# by size and holes.
-_FACET_STEP = 8
-_FACETS6 = {"hex_nut": 0.5, "washer": 0.06, "disc": 0.06}
+# Six-fold facet strength expected of the round kinds (regular hexagon 0.6 as rendered and
+# outlined at 1.65 px/mm; circles 0.04); other kinds are told apart by size and holes.
+_FACETS6 = {"hex_nut": 0.6, "washer": 0.04, "disc": 0.04}
 _SIGMA_FACETS = 0.12
 
 

@@ -28,7 +28,7 @@ LIGHTS: dict[str, tuple[list[float], list[float], float, bool]] = {
     "key": ([_P[0] - 0.25, _P[1] - 0.35, 0.9], [0.25, 0.35, -0.82], 0.0, False),
     "fill": ([_P[0] + 0.3, _P[1] + 0.3, 0.9], [-0.3, -0.3, -0.82], 0.0, False),
     # from the far side of the belt, so the arm never stands between it and the parts
-    "raking": ([_P[0], _P[1] + 0.5, _P[2] + 0.2], [0.0, -1.0, -0.4], 22.0, True),
+    "raking": ([_P[0], _P[1] + 0.5, _P[2] + 0.2], [0.0, -1.0, -0.4], 25.0, True),
     "coaxial": ([_P[0], _P[1], _P[2] + 0.38], [0.0, 0.0, -1.0], 50.0, False),
     "glare": ([_P[0] + 0.06, _P[1], _P[2] + 0.45], [-0.13, 0.0, -1.0], 35.0, False),
 }

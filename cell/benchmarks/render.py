@@ -41,7 +41,7 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
         world.run_until_part_at_pick(timeout=30)  # parts on the belt, one at the barrier
         cameras = {}
         for cam in ("overhead", "wrist"):
-            rig = world._rig(cam)
+            rig = world.rig(cam)
             out = {}
             for preset in ("front", "raking"):
                 world.set_lighting(preset)

@@ -242,7 +242,8 @@ class World:
             raise SimError(f"unknown camera '{camera}'; valid: {', '.join(valid)}")
         return CAMERAS[camera]
 
-    def _rig(self, camera: str) -> CameraRig:
+    def rig(self, camera: str) -> CameraRig:
+        """The renderer of ``camera`` (made on first use): raw RGB, depth, segmentation."""
         if camera not in self._rigs:
             cam, s = self.scenario.camera, self.scenario.sensor
             sensor = SensorModel(
@@ -263,7 +264,7 @@ class World:
 
     def render(self, camera: str = "overhead", *, depth: bool = True, seg: bool = True) -> Frame:
         """Render ``camera``: the sensor's RGB, and depth and segmentation if asked."""
-        rig = self._rig(camera)
+        rig = self.rig(camera)
         rgb = rig.sensor.apply(rig.render_rgb(self.data), self._sensor_rng, gain=self.lighting.gain)
         h, w = rgb.shape[:2]
         d = rig.render_depth(self.data) if depth else np.zeros((h, w), np.float32)

@@ -56,7 +56,7 @@ def main(argv: list[str]) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    world = World.build(scenario, arm=args.camera == "wrist" or _arm_available())
+    world = World.build(scenario)
     try:
         if args.time is not None:
             world.step(max(0, round(args.time / world.model.opt.timestep)))
@@ -86,10 +86,3 @@ def main(argv: list[str]) -> int:
           f"({time.perf_counter() - t0:.2f} s wall)")
     return 0
 
-
-def _arm_available() -> bool:
-    try:
-        import cell.sim.arm  # noqa: F401
-    except ImportError:
-        return False
-    return True

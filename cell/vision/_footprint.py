@@ -21,7 +21,14 @@ from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.errors import VisionError
 from cell.vision._blob import Blob
-from cell.vision.kind import Footprint, classify_kind, footprint, score_kind
+from cell.vision.kind import (
+    KIND_NAMES,
+    Footprint,
+    classify_kind,
+    footprint,
+    score_kind,
+    score_kinds,
+)
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -130,7 +137,7 @@ def fit_kind(blob: Blob, geo: Geometry, min_confidence: float) -> tuple[str, flo
     mid = geo.footprint(blob, _MID, _MID)
     if mid is None:
         return "unknown", 0.0, math.inf, Fit(None)
-    rough = {k: score_kind(mid, k) for k in KINDS}
+    rough = dict(zip(KIND_NAMES, score_kinds(mid).tolist(), strict=True))
     order = sorted(rough, key=rough.get)[:2]
     if rough[order[0]] > _ROUGH_HOPELESS:  # no kind's footprint can come out fitting
         return "unknown", 0.0, math.inf, Fit(mid)

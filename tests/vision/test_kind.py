@@ -104,3 +104,45 @@ def test_bad_input():
         footprint(np.zeros((2, 2)))
     with pytest.raises(VisionError, match="kind"):
         score_kind(footprint(_ring("circle", 0.01)), "gear")
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_noisy_outlines_keep_hex_nuts_and_washers_apart(seed):
+    """Outline points jittered by 0.4 mm (about the pixel size on the belt, as in dim,
+    noisy frames): the facet strength comes from the hull's edges, which run along the
+    flats, so a hex nut stays a hex nut (the outline's own short chords read it round)
+    and a washer stays round."""
+    rng = np.random.default_rng(seed)
+    for kind, shape, size in (("hex_nut", "hex", 0.0085), ("washer", "circle", 0.010)):
+        ring = _ring(shape, size, n=160)
+        ring = ring + rng.normal(0.0, 0.0004, ring.shape)
+        holes = OUTLINES[kind][1]
+        fp = footprint(_turn(ring, 0.7), [_turn(h, 0.7) for h in holes])
+        assert classify_kind({k: score_kind(fp, k) for k in KINDS})[0] == kind
+
+
+def test_score_kinds_equals_score_kind_per_kind():
+    from cell.vision.kind import KIND_NAMES, score_kinds
+
+    for kind, (outline, holes) in OUTLINES.items():
+        fp = footprint(_turn(outline, 0.4), [_turn(h, 0.4) for h in holes])
+        np.testing.assert_allclose(score_kinds(fp), [score_kind(fp, k) for k in KIND_NAMES],
+                                   rtol=1e-12, err_msg=kind)
+
+
+def test_l_bracket_yaw_is_not_turned_by_a_bulge_on_one_side():
+    """A shadow glued to one leg turns the min-area rectangle; the yaw follows the
+    edges' 4-fold mean direction instead, off by half as much or less."""
+    pts = np.array([[0, 0], [40, 0], [40, 12], [12, 12], [12, 30], [0, 30]], float)
+    dense = np.concatenate([np.linspace(a, b, 40, endpoint=False)
+                            for a, b in zip(pts, np.roll(pts, -1, axis=0), strict=True)])
+    # a wedge-shaped shadow along the long leg's outer edge: 0 mm at x=0, 3 mm at x=40
+    on_edge = dense[:, 1] < 1e-9
+    dense[on_edge, 1] -= 3.0 * dense[on_edge, 0] / 40
+    poly = (dense - dense.mean(axis=0)) * 1e-3
+    yaw = 0.6
+    fp = footprint(_turn(poly, yaw))
+    rect_err = abs(math.degrees(np.angle(np.exp(1j * 4 * (fp.rect_angle - yaw))) / 4))
+    assert rect_err > 2.0  # the rectangle is turned by the wedge...
+    e = (footprint_yaw(fp, "l_bracket") - yaw) % (2 * math.pi)
+    assert math.degrees(min(e, 2 * math.pi - e)) < 0.5 * rect_err  # ...the yaw much less

@@ -156,8 +156,21 @@ def _hull_facets(hull: np.ndarray, n: int) -> float:
     total = float(length.sum())
     if total <= 0:
         return 0.0
-    # sum(|z| * (z/|z|)^n) = sum(z^n / |z|^(n-1))
-    return float(abs(np.sum(z**n / np.maximum(length, 1e-15) ** (n - 1))) / total)
+    return float(abs(np.dot(length, _unit_power(z / np.maximum(length, 1e-15), n))) / total)
+
+
+def _unit_power(u: np.ndarray, n: int) -> np.ndarray:
+    """``u**n`` for complex ``u`` by repeated multiplication (numpy's complex power goes
+    through exp/log and is several times slower)."""
+    out = None
+    base = u
+    while n:
+        if n & 1:
+            out = base if out is None else out * base
+        n >>= 1
+        if n:
+            base = base * base
+    return out if out is not None else np.ones_like(u)
 
 
 # Six-fold facet strength expected of the round kinds (on the bench's tune seeds, hulls of
@@ -271,13 +284,13 @@ def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.
     stretches of a noisy outline, far from the flats' direction, count less.
     """
     d = np.roll(outline, -step, axis=0) - outline
-    length = np.hypot(d[:, 0], d[:, 1])
-    psi = np.arctan2(d[:, 1], d[:, 0])
-    e = np.exp(1j * n * psi)
-    mean = np.sum(length * e)
+    z = d[:, 0] + 1j * d[:, 1]
+    length = np.abs(z)
+    e = _unit_power(z / np.maximum(length, 1e-300), n)  # exp(i * n * psi)
+    mean = np.dot(length, e)
     for _ in range(iterations):
         unit = np.conj(mean) / max(abs(mean), 1e-300)
-        mean = np.sum(length * np.exp(kappa * (np.real(e * unit) - 1.0)) * e)
+        mean = np.dot(length * np.exp(kappa * (np.real(e * unit) - 1.0)), e)
     return float(np.angle(mean) / n + math.pi / 2)
 
 

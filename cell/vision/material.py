@@ -168,7 +168,7 @@ def classify_material(
     The albedo's nearest catalogue finishes give a prior P(metal) (Gaussian tolerance
     ``albedo_sigma``); grain then multiplies the odds: clear grain (``grain >= grain_metal``
     with ``grain_z >= grain_z_min``) on a surface bright enough to show it counts 50:1 for
-    metal; grain below 0.4 * ``grain_metal`` where a metal's grain would be clearly
+    metal; grain below 0.45 * ``grain_metal`` where a metal's grain would be clearly
     visible (``grain_visibility`` >= 6) counts 1:50 against. The albedo prior is held
     within 0.05..0.95, so clear grain always wins. A back-lit part is ``unknown``
     (confidence 0): a silhouette shows neither cue.
@@ -182,7 +182,7 @@ def classify_material(
     bright = float(f.albedo.mean()) >= 0.25
     if bright and f.grain >= grain_metal and f.grain_z >= grain_z_min:
         odds *= 50.0
-    elif bright and f.grain < 0.4 * grain_metal and f.grain_visibility >= 6.0:
+    elif bright and f.grain < 0.45 * grain_metal and f.grain_visibility >= 6.0:
         odds *= 0.02
     p = odds / (1 + odds)
     return ("metal", p) if p >= 0.5 else ("plastic", 1 - p)

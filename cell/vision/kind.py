@@ -70,7 +70,8 @@ class Footprint:
     @functools.cached_property
     def facets6(self) -> float:
         """Six-fold facet strength (0..1), computed on first use."""
-        return _facets(self.outline, 6)
+        hull = self.__dict__.get("_hull")  # kept by footprint(), in local millimetres
+        return _hull_facets(hull, 6) if hull is not None else _facets(self.outline, 6)
 
 
 def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarray] = ()) -> Footprint:
@@ -132,7 +133,7 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
         hole_fraction=1.0 - area / a_out if a_out > 0 else 0.0,
         solidity=a_out / hull_area if hull_area > 0 else 0.0,
     )
-    fp.__dict__["facets6"] = _hull_facets(hull, 6)  # the cached property, from this hull
+    fp.__dict__["_hull"] = hull  # for facets6, computed only if a score needs it
     return fp
 
 

@@ -25,6 +25,7 @@ from cell.catalogue import KINDS, MATERIALS
 from cell.errors import SimError
 from cell.scenario import Scenario
 from cell.sim import layout
+from cell.sim.arm import HOME, JOINT_NAMES, add_arm
 from cell.sim.cameras import CameraRig, Frame, add_overhead_camera, true_camera_model
 from cell.sim.conveyor import Conveyor, add_conveyor
 from cell.sim.fixtures import add_bins, add_table, add_target
@@ -85,8 +86,6 @@ def build_spec(
     add_overhead_camera(spec, fovy=scenario.camera.fovy)
     add_part_materials(spec)
     if arm:
-        from cell.sim.arm import add_arm
-
         add_arm(spec)
     for i, (kind, finish) in enumerate(sequence, start=1):
         pos = _OFFSTAGE + np.array([0.1 * (i % 20), 0.1 * (i // 20), 0.0])
@@ -104,7 +103,7 @@ class World:
 
     def __init__(self, scenario: Scenario, *, arm: bool = True) -> None:
         self.scenario = scenario
-        seeds = np.random.SeedSequence(scenario.seed).spawn(3)
+        seeds = np.random.SeedSequence(scenario.seed).spawn(2)
         self.rng = np.random.default_rng(seeds[0])  # part sequence and spawn poses
         self._sensor_rng = np.random.default_rng(seeds[1])
         sequence = _draw_sequence(scenario, self.rng)
@@ -136,8 +135,6 @@ class World:
 
     def _arm_home(self) -> None:
         """Put the arm at its home configuration, with its servos holding it there."""
-        from cell.sim.arm import HOME, JOINT_NAMES
-
         for name, q in zip(JOINT_NAMES, HOME, strict=True):
             self.data.qpos[self.model.joint(f"arm/{name}").qposadr[0]] = q
             self.data.ctrl[self.model.actuator(f"arm/{name}").id] = q

@@ -57,14 +57,25 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     unit normals (the tangent over five points turned by 90 degrees). For a hole contour
     "outward" points into the hole."""
     p = pts.astype(np.float64)
-    t = np.concatenate((p[2:], p[:2])) - np.concatenate((p[-2:], p[:-2]))
-    n = t[:, ::-1] * (1.0, -1.0)
-    n /= np.maximum(np.sqrt(np.einsum("ij,ij->i", n, n)), 1e-9)[:, None]
+    k = len(p)
+    if k < 5:
+        t = np.concatenate((p[2:], p[:2])) - np.concatenate((p[-2:], p[:-2]))
+    else:  # the same differences p[i + 2] - p[i - 2] (wrapped), without the copies
+        t = np.empty_like(p)
+        np.subtract(p[4:], p[:-4], out=t[2:-2])
+        np.subtract(p[2:4], p[-2:], out=t[:2])
+        np.subtract(p[:2], p[-4:-2], out=t[-2:])
     # findContours traces outer boundaries one way and holes the other; the sign of the
     # area says which way this one runs
     flip = cv2.contourArea(pts.astype(np.int32), oriented=True) < 0
+    n = np.empty_like(t)  # t turned by -90 degrees (+90 when flipped)
     if flip != hole:
-        n = -n
+        np.negative(t[:, 1], out=n[:, 0])
+        n[:, 1] = t[:, 0]
+    else:
+        n[:, 0] = t[:, 1]
+        np.negative(t[:, 0], out=n[:, 1])
+    n /= np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)[:, None]
     return p + 0.5 * n, n
 
 

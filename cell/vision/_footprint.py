@@ -110,8 +110,11 @@ class Geometry:
         (edges facing the nadir) and ``hi`` (facing away), metres above the surface:
         scalars, or arrays with one height per outline point (outline, then holes)."""
         self.prepare(blob)
-        dz = np.where(blob.away, hi, lo) + (self.plane_z - self.o[2])
-        xy = self.o[:2] + dz[:, None] * blob.rays
+        if np.isscalar(lo) and np.isscalar(hi) and lo == hi:  # one height: no choice
+            xy = self.o[:2] + (lo + (self.plane_z - self.o[2])) * blob.rays
+        else:
+            dz = np.where(blob.away, hi, lo) + (self.plane_z - self.o[2])
+            xy = self.o[:2] + dz[:, None] * blob.rays
         cuts = blob.splits
         holes = [xy[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
         try:

@@ -148,11 +148,12 @@ def _facets(outline: np.ndarray, n: int) -> float:
 
 def _hull_facets(hull: np.ndarray, n: int) -> float:
     """:func:`_facets` of a convex hull as ``cv2.convexHull`` returns it ((K, 1, 2))."""
-    h = hull.reshape(-1, 2).astype(np.float64)
-    if len(h) < 3:
+    if len(hull) < 3:
         return 0.0
-    d = np.diff(h, axis=0, append=h[:1])
-    z = d[:, 0] + 1j * d[:, 1]
+    p = hull.reshape(-1, 2).astype(np.float64).view(np.complex128).ravel()  # x + iy
+    z = np.empty_like(p)  # the edges, as np.diff with the first vertex appended
+    np.subtract(p[1:], p[:-1], out=z[:-1])
+    z[-1] = p[0] - p[-1]
     length = np.abs(z)
     total = float(length.sum())
     if total <= 0:

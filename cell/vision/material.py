@@ -109,13 +109,15 @@ def material_features(
     grey = cv2.blur(cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), (3, 3))
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
-    slope = (gx * gx + gy * gy)[mask]
+    at = np.flatnonzero(mask)  # the part's pixels, row-major (as a boolean mask picks)
+    slope = (gx * gx + gy * gy).ravel().take(at)
     q = n // 2
     flat = slope <= np.partition(slope, q)[q]
-    lit = grey[mask]
+    lit = grey.ravel().take(at)
     flat &= lit >= np.partition(lit, q)[q]  # and the lit half: off the shadow terminator
-    par = par_img[mask][flat]
-    orth2 = (sq_img[mask][flat]) - par * par
+    at = at[flat]
+    par = par_img.ravel().take(at)
+    orth2 = sq_img.ravel().take(at) - par * par
     k = par.size // 2
     med = np.partition(par, k)[k]
     s_par = 1.4826 * float(np.partition(np.abs(par - med), k)[k])

@@ -55,6 +55,12 @@ class Geometry:
         self.R = camera.T_world_camera[:3, :3]
         self.o = camera.T_world_camera[:3, 3]
         self._distorted = bool(np.any(camera.dist))
+        K = camera.K  # as Python floats: the same arithmetic, less overhead per call
+        self._fx, self._fy, self._cx, self._cy = (float(K[0, 0]), float(K[1, 1]),
+                                                  float(K[0, 2]), float(K[1, 2]))
+        self._skew = float(K[0, 1])
+        self._R2T = np.ascontiguousarray(self.R[:, :2].T)
+        self._R2 = self.R[:, 2].copy()
         nad = camera.K @ (self.R.T @ np.array([0.0, 0.0, -1.0]))
         self.nadir = nad[:2] / nad[2] if nad[2] > 1e-9 else None
         c = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])
@@ -71,10 +77,15 @@ class Geometry:
             )
             xy = norm.reshape(-1, 2)
         else:
-            y = (pts[:, 1] - K[1, 2]) / K[1, 1]
-            x = (pts[:, 0] - K[0, 2] - K[0, 1] * y) / K[0, 0]
-            xy = np.stack([x, y], axis=1)
-        return xy @ self.R[:, :2].T + self.R[:, 2]
+            xy = np.empty((len(pts), 2))
+            y = xy[:, 1]
+            np.subtract(pts[:, 1], self._cy, out=y)
+            y /= self._fy
+            x = xy[:, 0]
+            np.subtract(pts[:, 0], self._cx, out=x)
+            x -= self._skew * y
+            x /= self._fx
+        return xy @ self._R2T + self._R2
 
     @staticmethod
     def _per_drop(d: np.ndarray) -> np.ndarray:

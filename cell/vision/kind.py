@@ -285,8 +285,13 @@ def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.
     iteratively reweighted (M-estimator) mean: chords across corners and along ragged
     stretches of a noisy outline, far from the flats' direction, count less.
     """
-    d = np.roll(outline, -step, axis=0) - outline
-    z = d[:, 0] + 1j * d[:, 1]
+    p = np.ascontiguousarray(outline, dtype=np.float64).view(np.complex128).ravel()
+    if len(p) > step:  # chords p[i + step] - p[i], wrapped (np.roll without its copies)
+        z = np.empty_like(p)
+        np.subtract(p[step:], p[:-step], out=z[:-step])
+        np.subtract(p[:step], p[-step:], out=z[-step:])
+    else:
+        z = np.roll(p, -step) - p
     length = np.abs(z)
     e = _unit_power(z / np.maximum(length, 1e-300), n)  # exp(i * n * psi)
     mean = np.dot(length, e)

@@ -101,23 +101,22 @@ def material_features(
     norm = float(np.sqrt(mean @ mean))
     u = (mean / norm if norm > 1e-6 else np.full(3, 1 / math.sqrt(3))).astype(np.float32)
     hp = cv2.subtract(patch, cv2.blur(patch, (3, 3)), dtype=cv2.CV_32F)
-    par_img = cv2.transform(hp, u.reshape(1, 3))
-    sq_img = cv2.transform(hp * hp, np.ones((1, 3), np.float32))
     # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
     # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
     # shows in the gradient of the smoothed image; the flatter half of the part is kept.
     grey = cv2.blur(cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), (3, 3))
-    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
-    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3).ravel()
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3).ravel()
     at = np.flatnonzero(mask)  # the part's pixels, row-major (as a boolean mask picks)
-    slope = (gx * gx + gy * gy).ravel().take(at)
+    sx, sy = gx.take(at), gy.take(at)
+    slope = sx * sx + sy * sy
     q = n // 2
     flat = slope <= np.partition(slope, q)[q]
     lit = grey.ravel().take(at)
     flat &= lit >= np.partition(lit, q)[q]  # and the lit half: off the shadow terminator
-    at = at[flat]
-    par = par_img.ravel().take(at)
-    orth2 = sq_img.ravel().take(at) - par * par
+    sel = hp.reshape(-1, 3).take(at[flat], axis=0).reshape(-1, 1, 3)  # per-pixel only
+    par = cv2.transform(sel, u.reshape(1, 3)).ravel()
+    orth2 = cv2.transform(sel * sel, np.ones((1, 3), np.float32)).ravel() - par * par
     k = par.size // 2
     med = np.partition(par, k)[k]
     s_par = 1.4826 * float(np.partition(np.abs(par - med), k)[k])

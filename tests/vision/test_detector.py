@@ -201,3 +201,23 @@ def test_outline_normals_point_out_of_the_region_and_into_holes():
         hole.astype(np.float32))
     assert area == pytest.approx(cv2.countNonZero(mask), rel=0.02)  # half-pixel shift
     assert blob.mask_box == (110, 210, 40, 40)
+
+
+def test_outline_normals_are_the_turned_five_point_tangents():
+    """Normals equal the central difference over five points turned by 90 degrees and
+    normalised (the short-contour path computes it the direct way)."""
+    from cell.vision._blob import outline_normals
+
+    t = np.linspace(0, 2 * np.pi, 23, endpoint=False)
+    pts = np.round(np.stack([50 + 20 * np.cos(t), 40 + 12 * np.sin(t)], 1)).astype(np.int32)
+    for p, hole in ((pts, False), (pts[::-1], False), (pts, True)):
+        out, n = outline_normals(p, hole=hole)
+        q = p.astype(np.float64)
+        tan = np.roll(q, -2, axis=0) - np.roll(q, 2, axis=0)
+        ref = np.stack([tan[:, 1], -tan[:, 0]], 1) / np.hypot(tan[:, 0], tan[:, 1])[:, None]
+        centre = q.mean(axis=0)
+        outward = np.einsum("ij,ij->i", ref, q - centre) > 0
+        ref = ref if outward.mean() > 0.5 else -ref
+        assert np.allclose(n, -ref if hole else ref, atol=1e-12)
+        assert np.allclose(out, q + 0.5 * n)
+        assert np.array_equal(outline_normals(p[:4], hole=hole)[1].shape, (4, 2))

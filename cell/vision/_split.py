@@ -145,14 +145,12 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int],
     """Every pixel of ``roi`` to its nearest seed, each piece with its best kind; None when
     a piece is a speck, not one region, or fits no kind and cannot be split further."""
     _, near = cv2.distanceTransformWithLabels(
-        (seeds == 0).astype(np.uint8), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
+        cv2.compare(seeds, 0, cv2.CMP_EQ), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
     )
-    ys, xs = np.nonzero(seeds)
-    lookup = np.zeros(near.max() + 1, np.uint8)
-    # DIST_LABEL_PIXEL numbers the zero pixels (the seeds) in row-major order
-    lookup[1 : len(ys) + 1] = seeds[ys, xs]
-    owner = lookup[near]
-    owner[roi == 0] = 0
+    seed_labels = seeds[seeds != 0]  # row-major, as DIST_LABEL_PIXEL numbers the seeds
+    lookup = np.zeros(max(int(near.max()), len(seed_labels)) + 1, np.uint8)
+    lookup[1 : len(seed_labels) + 1] = seed_labels
+    owner = cv2.bitwise_and(lookup.take(near), roi)  # roi is 0/255: outside it, nobody
     out: list[Piece] = []
     min_conf = view.settings.min_kind_confidence
     for lab in range(1, int(seeds.max()) + 1):

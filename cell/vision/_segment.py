@@ -185,6 +185,19 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
 
 
+def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: float) -> None:
+    """Clear the :func:`shadow` pixels of mask ``keep`` (uint8, img's shape), testing only
+    its nonzero pixels' bounding box: that box and one pixel around it (the 3x3 mean's
+    support) give the same shadow there as the whole image does."""
+    rx, ry, rw, rh = cv2.boundingRect(keep)
+    if rw == 0 or rh == 0:
+        return
+    h, w = keep.shape
+    xa, ya, xb, yb = max(rx - 1, 0), max(ry - 1, 0), min(rx + rw + 1, w), min(ry + rh + 1, h)
+    sh = shadow(img[ya:yb, xa:xb], bg[ya:yb, xa:xb], chroma)
+    keep[ry : ry + rh, rx : rx + rw][sh[ry - ya : ry - ya + rh, rx - xa : rx - xa + rw]] = 0
+
+
 def find_blobs(view: FrameView) -> list[Blob]:
     """Outer contours of the half-scale foreground, each refined at full scale in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
@@ -256,8 +269,8 @@ def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> l
         half = inside.size // 2
         level = max(level, st.edge_level * float(np.partition(inside, half)[half]))
     keep = cv2.bitwise_and(cv2.dilate(own, _K3), cv2.threshold(d, level, 255, cv2.THRESH_BINARY)[1])
-    if not view.backlit:  # a light table casts no shadows; silhouettes are neutral
-        keep[shadow(img, bg, st.shadow_chroma)] = 0
+    if not view.backlit and st.shadow_chroma > 0:  # a light table casts no shadows
+        _drop_shadow(keep, img, bg, st.shadow_chroma)
     sub = cv2.morphologyEx(keep, cv2.MORPH_OPEN, _K3)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:

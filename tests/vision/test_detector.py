@@ -221,3 +221,24 @@ def test_outline_normals_are_the_turned_five_point_tangents():
         assert np.allclose(n, -ref if hole else ref, atol=1e-12)
         assert np.allclose(out, q + 0.5 * n)
         assert np.array_equal(outline_normals(p[:4], hole=hole)[1].shape, (4, 2))
+
+
+def test_shadow_dropped_in_the_mask_box_equals_the_whole_image_shadow():
+    """Testing shadow only in the mask's bounding box (and a pixel around it) clears the
+    same pixels as testing the whole image, also where that box meets the image edge."""
+    from cell.vision._segment import _drop_shadow, shadow
+
+    rng = np.random.default_rng(5)
+    bg = rng.integers(60, 220, (40, 50, 3), dtype=np.uint8)
+    scale = rng.uniform(0.3, 1.1, (40, 50, 1))
+    tint = rng.uniform(0.9, 1.1, (40, 50, 3))  # some keep the colour, some do not
+    img = np.clip(bg * scale * tint, 0, 255).astype(np.uint8)
+    for box in ((slice(5, 30), slice(8, 20)), (slice(0, 40), slice(0, 12)),
+                (slice(33, 40), slice(44, 50))):
+        keep = np.zeros((40, 50), np.uint8)
+        keep[box] = 255
+        ref = keep.copy()
+        ref[shadow(img, bg, 0.1)] = 0
+        _drop_shadow(keep, img, bg, 0.1)
+        assert np.array_equal(keep, ref)
+        assert (ref[box] == 0).any()

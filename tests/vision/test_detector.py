@@ -229,9 +229,9 @@ def test_shadow_dropped_in_the_mask_box_equals_the_whole_image_shadow():
     from cell.vision._segment import _drop_shadow, shadow
 
     rng = np.random.default_rng(5)
-    bg = rng.integers(60, 220, (40, 50, 3), dtype=np.uint8)
-    scale = rng.uniform(0.3, 1.1, (40, 50, 1))
-    tint = rng.uniform(0.9, 1.1, (40, 50, 3))  # some keep the colour, some do not
+    bg = np.broadcast_to(rng.integers(120, 220, (1, 1, 3)), (40, 50, 3)).astype(np.uint8)
+    scale = rng.uniform(0.4, 0.8, (40, 50, 1))  # darker: a shadow ...
+    tint = rng.choice([1.0, 1.3], (40, 50, 3))  # ... unless the colour changes
     img = np.clip(bg * scale * tint, 0, 255).astype(np.uint8)
     for box in ((slice(5, 30), slice(8, 20)), (slice(0, 40), slice(0, 12)),
                 (slice(33, 40), slice(44, 50))):

@@ -100,7 +100,7 @@ def material_features(
     mean = np.array(cv2.mean(patch, mask=m8)[:3])
     norm = float(np.sqrt(mean @ mean))
     u = (mean / norm if norm > 1e-6 else np.full(3, 1 / math.sqrt(3))).astype(np.float32)
-    hp = cv2.subtract(patch, cv2.blur(patch, (3, 3)), dtype=cv2.CV_32F)
+    local = cv2.blur(patch, (3, 3))
     # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
     # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
     # shows in the gradient of the smoothed image; the flatter half of the part is kept.
@@ -114,7 +114,9 @@ def material_features(
     flat = slope <= np.partition(slope, q)[q]
     lit = grey.ravel().take(at)
     flat &= lit >= np.partition(lit, q)[q]  # and the lit half: off the shadow terminator
-    sel = hp.reshape(-1, 3).take(at[flat], axis=0).reshape(-1, 1, 3)  # per-pixel only
+    at = at[flat]  # the high-pass residual (pixel less its 3x3 mean) there only
+    sel = cv2.subtract(patch.reshape(-1, 3).take(at, axis=0),
+                       local.reshape(-1, 3).take(at, axis=0), dtype=cv2.CV_32F).reshape(-1, 1, 3)
     par = cv2.transform(sel, u.reshape(1, 3)).ravel()
     orth2 = cv2.transform(sel * sel, np.ones((1, 3), np.float32)).ravel() - par * par
     k = par.size // 2

@@ -197,7 +197,7 @@ def _material(view: FrameView, blob: Blob) -> tuple[str, float]:
             return "unknown", 0.0
     x1, y1 = x0 + roi.shape[1], y0 + roi.shape[0]
     belt = _belt_near(view, x0, y0, x1, y1)
-    if float(np.min(belt)) >= st.backlight_level:
+    if min(belt.tolist()) >= st.backlight_level:
         return "unknown", 0.0  # a glowing light table behind this part: a silhouette
     # Only the interior's bounding box and 2 px around it (the support of the 3x3 mean and
     # of the Sobel of the 3x3-smoothed grey): the same features, on fewer pixels.

@@ -242,3 +242,14 @@ def test_shadow_dropped_in_the_mask_box_equals_the_whole_image_shadow():
         _drop_shadow(keep, img, bg, 0.1)
         assert np.array_equal(keep, ref)
         assert (ref[box] == 0).any()
+
+
+def test_every_8th_pixel_is_the_strided_slice_for_any_size():
+    from cell.vision._segment import _every_8th
+
+    rng = np.random.default_rng(6)
+    for h, w in ((480, 640), (21, 21), (16, 16), (100, 131), (37, 45), (5, 9)):
+        img = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        small = _every_8th(img)
+        assert small.flags.c_contiguous
+        assert np.array_equal(small, img[4::8, 4::8])

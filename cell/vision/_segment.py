@@ -30,7 +30,6 @@ _BG_MEDIAN = 15  # its median aperture at that scale (120 px at full scale)
 _K2 = np.ones((2, 2), np.uint8)  # an opening at half scale that keeps a 4 px ring
 _K3 = np.ones((3, 3), np.uint8)
 _K5 = np.ones((5, 5), np.uint8)
-_K13 = np.ones((1, 3), np.uint8)
 _LEVELS = np.arange(256)
 _DIFFS = np.arange(511)
 
@@ -131,9 +130,8 @@ def _every_8th(img: np.ndarray) -> np.ndarray:
 
 
 def _max_channel_diff(img: np.ndarray, bg: np.ndarray) -> np.ndarray:
-    h, w = img.shape[:2]
-    diff = cv2.absdiff(img, bg).reshape(h, w * 3)
-    return np.ascontiguousarray(cv2.dilate(diff, _K13)[:, 1::3])
+    red, green, blue = cv2.split(cv2.absdiff(img, bg))
+    return cv2.max(cv2.max(red, green), blue)
 
 
 def _median_mad(dmax: np.ndarray) -> tuple[float, float]:
@@ -192,12 +190,10 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     """
     if chroma <= 0:
         return np.zeros(img.shape[:2], bool)
-    h, w = img.shape[:2]
     ratio = cv2.divide(cv2.blur(img, (3, 3)), cv2.add(bg, 1), dtype=cv2.CV_32F)
-    ratio = ratio.reshape(h, w * 3)
-    # max / min over each pixel's three channels (contiguous: faster to compare)
-    rmax = np.ascontiguousarray(cv2.dilate(ratio, _K13)[:, 1::3])
-    rmin = np.ascontiguousarray(cv2.erode(ratio, _K13)[:, 1::3])
+    red, green, blue = cv2.split(ratio)  # max / min over each pixel's three channels
+    rmax = cv2.max(cv2.max(red, green), blue)
+    rmin = cv2.min(cv2.min(red, green), blue)
     return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
 
 

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_mask, px_centroid
-from cell.vision._footprint import Fit, fit_kind
+from cell.vision._footprint import Fit, fit_kinds
 from cell.vision._segment import FrameView
 
 __all__: list[str] = []  # private to cell.vision
@@ -35,23 +35,13 @@ Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint
 def split_blob(blob: Blob, view: FrameView, depth: int = 0) -> list[tuple[Blob, str, float, Fit]]:
     """Pieces (blob, kind, confidence, footprint) of a blob of touching parts, or [] when
     no cut gives pieces that fit their kinds (mean fit below ``_ACCEPT``)."""
-    x, y, bw, bh = blob.mask_box
-    ox, oy = x - 1, y - 1
-    roi = np.zeros((bh + 2, bw + 2), np.uint8)
-    outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32)
-    cv2.drawContours(roi, [outline], -1, 255, -1, offset=(-ox, -oy))
-    filled = roi.copy()  # holes filled: a washer's core is its whole disc
-    for hole, hn in blob.holes:
-        hp = np.round(hole - 0.5 * hn).astype(np.int32)
-        cv2.drawContours(roi, [hp], -1, 0, -1, offset=(-ox, -oy))
     best: list[Piece] = []
     best_cost = math.inf
     deferred: list[list[Piece]] = []  # cuts with a piece that may split further
-    for seeds in _cut_candidates(filled):
-        pieces = _pieces(roi, seeds, (ox, oy), view, depth < 2)
+    for pieces in _candidates(blob, view, depth < 2):
         if pieces is None:
             continue
-        if any(p[1] == "unknown" for p in pieces):  # (each may split: else _pieces is None)
+        if any(p[1] == "unknown" for p in pieces):  # (each may split: else _evaluate is None)
             pieces = _split_further(pieces, view, depth, unknown_only=True)
             if not pieces:
                 continue
@@ -76,6 +66,8 @@ def split_blob(blob: Blob, view: FrameView, depth: int = 0) -> list[tuple[Blob, 
         return []
     for p in best:
         p[3].centroid_px = px_centroid(p[0])
+        if p[0].roi is None:
+            p[0].roi = _piece_roi(p[0], blob)
     return [p[:4] for p in best]
 
 
@@ -103,35 +95,102 @@ def _split_further(pieces: list[Piece], view: FrameView, depth: int, *,
     return out
 
 
-def _cut_candidates(roi: np.ndarray):
-    """Seed images (uint8, pieces labelled 1..n) for possible splits of ``roi``."""
-    contours, _ = cv2.findContours(roi, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    if contours:
-        c = max(contours, key=len)
-        hull = cv2.convexHull(c, returnPoints=False)
-        defects = None
-        if len(c) >= 5 and hull is not None and len(hull) >= 4:
-            try:
-                defects = cv2.convexityDefects(c, hull)
-            except cv2.error:
-                defects = None
-        if defects is not None:
-            d = defects[:, 0]
-            d = d[d[:, 3] >= 2.5 * 256]
-            d = d[np.argsort(-d[:, 3], kind="stable")][:6]
-            deep = [(float(di) / 256.0, tuple(int(v) for v in c[fi][0])) for _, _, fi, di in d]
-            pairs = []
-            for i in range(len(deep)):
-                for j in range(i + 1, len(deep)):
-                    (di, pi), (dj, pj) = deep[i], deep[j]
-                    pairs.append((math.dist(pi, pj) / (di + dj), pi, pj))
-            pairs.sort()
-            for _, pi, pj in pairs[:6]:
-                cut = roi.copy()
-                cv2.line(cut, pi, pj, 0, 2)
-                n, labels = cv2.connectedComponents(cut, connectivity=4)
-                if n == 3:
-                    yield labels.astype(np.uint8)
+def _candidates(blob: Blob, view: FrameView, may_split: bool):
+    """Evaluated cuts of a blob (lists of pieces, or None for a cut that fails), best
+    guesses first: straight cuts between pairs of deep convexity defects, made on the
+    outline itself (:func:`_polygon_cuts`); then cores of the distance transform, on the
+    rasterised blob (:func:`_core_cuts`)."""
+    for pieces in _polygon_cuts(blob, view):
+        yield _evaluate(pieces, view, may_split)
+    x, y, bw, bh = blob.mask_box
+    ox, oy = x - 1, y - 1
+    roi = np.zeros((bh + 2, bw + 2), np.uint8)
+    outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32)
+    cv2.drawContours(roi, [outline], -1, 255, -1, offset=(-ox, -oy))
+    filled = roi.copy()  # holes filled: a washer's core is its whole disc
+    for hole, hn in blob.holes:
+        hp = np.round(hole - 0.5 * hn).astype(np.int32)
+        cv2.drawContours(roi, [hp], -1, 0, -1, offset=(-ox, -oy))
+    for seeds in _core_cuts(filled):
+        pieces = _pieces(roi, seeds, (ox, oy))
+        yield None if pieces is None else _evaluate(pieces, view, may_split)
+
+
+def _polygon_cuts(blob: Blob, view: FrameView):
+    """Pieces (two blobs) for straight cuts between pairs of deep (>= 2.5 px) convexity
+    defects of the outline (``cv2.convexityDefects``): the six deepest defects, pairs
+    with the shortest cut relative to their depths first, at most six. A piece is the
+    outline between the two defect points, closed by the cut, with the holes inside it;
+    its rays come from the blob's (no new contour tracing)."""
+    outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32)
+    if len(outline) < 5:
+        return
+    hull = cv2.convexHull(outline, returnPoints=False)
+    if hull is None or len(hull) < 4:
+        return
+    try:
+        defects = cv2.convexityDefects(outline, hull)
+    except cv2.error:
+        return
+    if defects is None:
+        return
+    d = defects[:, 0]
+    d = d[d[:, 3] >= 2.5 * 256]
+    d = d[np.argsort(-d[:, 3], kind="stable")][:6]
+    deep = [(float(di) / 256.0, int(fi)) for _, _, fi, di in d]
+    pairs = []
+    for i in range(len(deep)):
+        for j in range(i + 1, len(deep)):
+            (di, fi), (dj, fj) = deep[i], deep[j]
+            pairs.append((math.dist(outline[fi], outline[fj]) / (di + dj), min(fi, fj), max(fi, fj)))
+    pairs.sort()
+    view.geo.prepare([blob])
+    n = len(outline)
+    for _, fi, fj in pairs[:6]:
+        mid = (outline[fi] + outline[fj]) / 2.0
+        if fj - fi < 8 or n - (fj - fi) < 8:
+            continue
+        if cv2.pointPolygonTest(outline, (float(mid[0]), float(mid[1])), False) < 0:
+            continue  # the cut runs outside the blob
+        pieces = [_sub_blob(blob, np.arange(fi, fj + 1)),
+                  _sub_blob(blob, np.r_[fj:n, 0 : fi + 1])]
+        if all(cv2.contourArea(p.contour.astype(np.float32)) >= 30 for p in pieces):
+            yield pieces
+
+
+def _sub_blob(blob: Blob, idx: np.ndarray) -> Blob:
+    """The piece of a (prepared) blob made of its outline points ``idx`` (closed by a
+    straight edge) and the holes whose first point lies inside that outline."""
+    contour = blob.contour[idx]
+    holes, parts, sizes = [], [idx], [len(idx)]
+    cuts = blob.splits
+    for k, (h, hn) in enumerate(blob.holes):
+        if cv2.pointPolygonTest(contour.astype(np.float32), (float(h[0, 0]), float(h[0, 1])), False) > 0:
+            holes.append((h, hn))
+            parts.append(np.arange(cuts[k], cuts[k + 1]))
+            sizes.append(len(h))
+    take = np.concatenate(parts) if len(parts) > 1 else idx
+    x, y, w, h = cv2.boundingRect(np.round(contour).astype(np.int32))
+    piece = Blob(contour, blob.normals[idx], holes, (x, y, w, h), False)
+    piece.rays, piece.away = blob.rays[take], blob.away[take]
+    piece.splits = np.cumsum(sizes)
+    return piece
+
+
+def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
+    """A polygon piece's own pixels: its outline filled, within the parent's pixels."""
+    if parent.roi is None:
+        return None
+    x0, y0, mask = parent.roi
+    own = np.zeros_like(mask)
+    outline = np.round(piece.contour - 0.5 * piece.normals).astype(np.int32)
+    cv2.fillPoly(own, [outline], 255, offset=(-x0, -y0))
+    return x0, y0, cv2.bitwise_and(own, mask)
+
+
+def _core_cuts(roi: np.ndarray):
+    """Seed images (uint8, pieces labelled 1..n) of the distance transform's cores of a
+    filled blob at a few depths (3, 5, 8, 12 px) that give two or three cores."""
     dist = cv2.distanceTransform(roi, cv2.DIST_L2, 3)
     for level in (3.0, 5.0, 8.0, 12.0):
         cores = (dist > level).astype(np.uint8)
@@ -140,10 +199,9 @@ def _cut_candidates(roi: np.ndarray):
             yield labels.astype(np.uint8)
 
 
-def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int],
-            view: FrameView, may_split: bool) -> list[Piece] | None:
-    """Every pixel of ``roi`` to its nearest seed, each piece with its best kind; None when
-    a piece is a speck, not one region, or fits no kind and cannot be split further."""
+def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list[Blob] | None:
+    """Every pixel of ``roi`` to its nearest seed: the pieces' blobs, or None when a piece
+    is a speck or not one region."""
     _, near = cv2.distanceTransformWithLabels(
         cv2.compare(seeds, 0, cv2.CMP_EQ), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
     )
@@ -151,8 +209,7 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int],
     lookup = np.zeros(max(int(near.max()), len(seed_labels)) + 1, np.uint8)
     lookup[1 : len(seed_labels) + 1] = seed_labels
     owner = cv2.bitwise_and(lookup.take(near), roi)  # roi is 0/255: outside it, nobody
-    out: list[Piece] = []
-    min_conf = view.settings.min_kind_confidence
+    subs = []
     for lab in range(1, int(seeds.max()) + 1):
         piece = cv2.compare(owner, lab, cv2.CMP_EQ)
         if cv2.countNonZero(piece) < 30:
@@ -161,8 +218,17 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int],
         if len(sub) != 1:
             return None
         sub[0].roi = (offset[0], offset[1], piece)
-        kind, conf, fit, res = fit_kind(sub[0], view.geo, min_conf)
-        p = (sub[0], kind, conf, res, fit)
+        subs.append(sub[0])
+    return subs
+
+
+def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece] | None:
+    """Each piece with its best kind; None when a piece fits no kind and cannot be split
+    further."""
+    out: list[Piece] = []
+    for sub, (kind, conf, fit, res) in zip(
+            subs, fit_kinds(subs, view.geo, view.settings.min_kind_confidence), strict=True):
+        p = (sub, kind, conf, res, fit)
         if kind == "unknown" and not (may_split and _may_split(p, view)):
             return None
         out.append(p)

@@ -41,7 +41,7 @@ from cell.catalogue import KINDS
 from cell.errors import VisionError
 from cell.vision._blob import Blob, px_centroid
 from cell.vision._checks import check_colour
-from cell.vision._footprint import Fit, Geometry, bolt_origin, fit_kind
+from cell.vision._footprint import _MID, Fit, Footprints, Geometry, bolt_origin, fit_kinds
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._split import split_blob
 from cell.vision.kind import footprint_yaw
@@ -122,8 +122,11 @@ class PartDetector:
                          max_px=int(2.5 * _LONGEST / geo.m_per_px),
                          min_px=st.min_area_mm2 * 1e-6 / geo.m_per_px**2)
         found: list[tuple[Blob, str, float, Fit]] = []
-        for blob in find_blobs(view):
-            found.extend(self._interpret(blob, view))
+        blobs = [b for b in find_blobs(view) if geo.area_mm2(b) >= st.min_area_mm2]
+        whole = [b for b in blobs if not b.partial]
+        for blob, fitted in zip(whole, fit_kinds(whole, geo, st.min_kind_confidence), strict=True):
+            found.extend(self._interpret(blob, fitted, view))
+        found.extend(self._partials([b for b in blobs if b.partial], geo))
         found.sort(key=lambda f: (f[3].centroid_px[0], f[3].centroid_px[1]))
         out = []
         for i, (blob, kind, conf, res) in enumerate(found, start=1):
@@ -142,24 +145,16 @@ class PartDetector:
         self._geo = (tuple(np.array(a, copy=True) for a in key), geo)
         return geo
 
-    def _interpret(self, blob: Blob, view: FrameView) -> list[tuple[Blob, str, float, Fit]]:
-        """The part(s) in one blob: one when a kind fits it, several when it splits into
-        touching parts, one of kind ``unknown`` (no position) at the image border, none
-        for specks and for what is not a part (a rail, a belt edge)."""
+    def _interpret(self, blob: Blob, fitted: tuple[str, float, float, Fit],
+                   view: FrameView) -> list[tuple[Blob, str, float, Fit]]:
+        """The part(s) in one blob, given its best kind (``fitted``): one when a kind fits
+        it, several when it splits into touching parts, none when it is not a part."""
         st, geo = self.settings, view.geo
-        area_mm2 = geo.area_mm2(blob)
-        if area_mm2 < st.min_area_mm2:
-            return []
-        if blob.partial:
-            res = Fit(geo.footprint(blob, 0.0025, 0.0025), centroid_px=px_centroid(blob))
-            if (res.fp is None or area_mm2 > st.max_area_mm2 or res.fp.length > 1.3 * _LONGEST
-                    or res.fp.width < st.partial_min_width):
-                return []  # not a part: a rail, a belt edge, the table beyond; or a sliver
-            return [(blob, "unknown", 0.0, res)]
-        kind, conf, fit, res = fit_kind(blob, geo, st.min_kind_confidence)
+        kind, conf, fit, res = fitted
         if kind != "unknown" and fit < 9.0:
             res.centroid_px = px_centroid(blob)
             return [(blob, kind, conf, res)]
+        area_mm2 = geo.area_mm2(blob)
         if st.split_touching and area_mm2 > 1.5 * st.min_area_mm2:
             pieces = split_blob(blob, view)
             if pieces:
@@ -168,6 +163,22 @@ class PartDetector:
             return []
         res.centroid_px = px_centroid(blob)
         return [(blob, kind, conf, res)]
+
+    def _partials(self, blobs: list[Blob], geo: Geometry) -> list[tuple[Blob, str, float, Fit]]:
+        """Blobs at the image border: parts of kind ``unknown`` (no position), except what
+        is not a part (a rail, a belt edge, the table beyond) and slivers."""
+        if not blobs:
+            return []
+        st = self.settings
+        mid = Footprints(geo, [(b, _MID, _MID) for b in blobs])
+        out = []
+        for i, blob in enumerate(blobs):
+            fp = mid.footprint(i)
+            if (geo.area_mm2(blob) > st.max_area_mm2 or fp.length > 1.3 * _LONGEST
+                    or fp.width < st.partial_min_width):
+                continue
+            out.append((blob, "unknown", 0.0, Fit(fp, centroid_px=px_centroid(blob))))
+        return out
 
 
 def _belt_near(view: FrameView, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:

@@ -17,15 +17,16 @@ circular harmonic of the outline's chord directions (Mardia & Jupp, 2000).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numba import njit
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
+from cell.vision._polygons import PolygonSet, describe_polygons
 
 __all__ = [
     "Footprint",
@@ -35,6 +36,8 @@ __all__ = [
     "nominal_descriptors",
     "score_kind",
     "score_kinds",
+    "score_table",
+    "classify_table",
 ]
 
 _SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
@@ -53,8 +56,8 @@ class Footprint:
     ``rect_angle`` the direction of its long side (rad); ``hole_fraction`` the holes'
     area over the outline's area; ``solidity`` the outline's area over its hull's area;
     ``facets6`` the strength (0..1) of six-fold flats: the 6th circular harmonic of the
-    edge directions of the outline's convex hull (about 0.65-0.75 for a rendered hex nut, below
-    0.2 for a circle).
+    edge directions of the outline's convex hull (about 0.65-0.75 for a rendered hex nut,
+    below 0.2 for a circle).
     """
 
     outline: np.ndarray
@@ -66,12 +69,7 @@ class Footprint:
     rect_angle: float
     hole_fraction: float
     solidity: float
-
-    @functools.cached_property
-    def facets6(self) -> float:
-        """Six-fold facet strength (0..1), computed on first use."""
-        hull = self.__dict__.get("_hull")  # kept by footprint(), in local millimetres
-        return _hull_facets(hull, 6) if hull is not None else _facets(self.outline, 6)
+    facets6: float
 
 
 def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarray] = ()) -> Footprint:
@@ -80,85 +78,40 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
     Parameters
     ----------
     outline : (N, 2) float array, the outer boundary in metres (N >= 3).
-    holes : polygons (M, 2) in metres inside ``outline``.
+    holes : polygons (M, 2) in metres inside ``outline`` (fewer than 3 points: ignored).
 
-    Areas and centroids come from polygon moments (Green's theorem, ``cv2.moments``),
+    Areas and centroids come from polygon moments (Green's theorem, as ``cv2.moments``),
     the rectangle from ``cv2.minAreaRect`` and the hull from ``cv2.convexHull``, all on
-    float32 millimetres around the outline's first vertex (float32 keeps its precision).
+    float32 millimetres around the outline's first vertex (float32 keeps its precision);
+    see :func:`cell.vision._polygons.describe_polygons`, which does the same for many
+    footprints at once.
     """
     outline = np.asarray(outline, dtype=np.float64)
     if outline.ndim != 2 or outline.shape[1] != 2 or outline.shape[0] < 3:
         raise VisionError(f"footprint: outline must be (N>=3, 2), got shape {outline.shape}")
-    ox, oy = float(outline[0, 0]), float(outline[0, 1])
-    origin = (ox, oy)
-    pts = ((outline - origin) * 1e3).astype(np.float32)  # mm, local
-    m = cv2.moments(pts)
-    area = a_out = abs(m["m00"])  # mm^2
-    sx = sy = 0.0  # first moments (mm^3), local
-    if a_out >= 1e-9:
-        sign = 1.0 if m["m00"] > 0 else -1.0
-        sx, sy = sign * m["m10"], sign * m["m01"]
-    hole_list = []
-    for hole in holes:
-        hole = np.asarray(hole, dtype=np.float64)
-        if hole.shape[0] < 3:
-            continue
-        mh = cv2.moments(((hole - origin) * 1e3).astype(np.float32))
-        if abs(mh["m00"]) >= 1e-9:
-            sign = 1.0 if mh["m00"] > 0 else -1.0
-            area -= sign * mh["m00"]
-            sx -= sign * mh["m10"]
-            sy -= sign * mh["m01"]
-        hole_list.append(hole)
-    if area > 1e-6:
-        centroid = np.array((ox + sx / area * 1e-3, oy + sy / area * 1e-3))
-    elif a_out >= 1e-9:
-        centroid = np.array((ox + sx / a_out * 1e-3, oy + sy / a_out * 1e-3))
-    else:
-        centroid = outline.mean(axis=0)
-    (_, _), (w, h), ang = cv2.minAreaRect(pts)
-    ang = math.radians(ang)
-    if w < h:
-        w, h, ang = h, w, ang + math.pi / 2
-    hull = cv2.convexHull(pts)
-    hull_area = cv2.contourArea(hull)  # mm^2
-    fp = Footprint(
+    hole_list = [h for h in (np.asarray(h, dtype=np.float64) for h in holes) if h.shape[0] >= 3]
+    polys = [outline, *hole_list]
+    starts = np.concatenate(([0], np.cumsum([len(p) for p in polys])))
+    d = describe_polygons(np.concatenate(polys), starts, np.zeros(len(polys), np.intp),
+                          np.zeros(1, np.intp))
+    return footprint_of(d, 0, outline, tuple(hole_list))
+
+
+def footprint_of(d: PolygonSet, i: int, outline: np.ndarray,
+                 holes: tuple[np.ndarray, ...]) -> Footprint:
+    """The ``Footprint`` of entry ``i`` of a :class:`~cell.vision._polygons.PolygonSet`."""
+    return Footprint(
         outline=outline,
-        holes=tuple(hole_list),
-        area=max(area, 0.0) * 1e-6,
-        centroid=centroid,
-        length=float(w) * 1e-3,
-        width=float(h) * 1e-3,
-        rect_angle=math.atan2(math.sin(ang), math.cos(ang)),
-        hole_fraction=1.0 - area / a_out if a_out > 0 else 0.0,
-        solidity=a_out / hull_area if hull_area > 0 else 0.0,
+        holes=holes,
+        area=float(d.area[i]),
+        centroid=d.centroid[i],
+        length=float(d.length[i]),
+        width=float(d.width[i]),
+        rect_angle=float(d.rect_angle[i]),
+        hole_fraction=float(d.hole_fraction[i]),
+        solidity=float(d.solidity[i]),
+        facets6=float(d.facets6[i]),
     )
-    fp.__dict__["_hull"] = hull  # for facets6, computed only if a score needs it
-    return fp
-
-
-def _facets(outline: np.ndarray, n: int) -> float:
-    """n-fold facet strength (0..1) of an outline: the n-th circular harmonic of the edge
-    directions of its convex hull, weighted by edge length (Mardia & Jupp, 2000). The
-    hull bridges a bite that a dark, low-contrast corner takes out of the outline, and
-    its edges run along the flats, so pixel noise on the outline hardly weakens it."""
-    pts = ((outline - outline[0]) * 1e3).astype(np.float32)  # mm, local
-    return _hull_facets(cv2.convexHull(pts), n)
-
-
-def _hull_facets(hull: np.ndarray, n: int) -> float:
-    """:func:`_facets` of a convex hull as ``cv2.convexHull`` returns it ((K, 1, 2))."""
-    if len(hull) < 3:
-        return 0.0
-    p = hull.reshape(-1, 2).astype(np.float64).view(np.complex128).ravel()  # x + iy
-    z = np.empty_like(p)  # the edges, as np.diff with the first vertex appended
-    np.subtract(p[1:], p[:-1], out=z[:-1])
-    z[-1] = p[0] - p[-1]
-    length = np.abs(z)
-    total = float(length.sum())
-    if total <= 0:
-        return 0.0
-    return float(abs(np.dot(length, _unit_power(z / np.maximum(length, 1e-15), n))) / total)
 
 
 def _unit_power(u: np.ndarray, n: int) -> np.ndarray:
@@ -243,14 +196,64 @@ _FACETED = np.array([k == "hex_nut" for k in KIND_NAMES])
 
 def score_kinds(fp: Footprint) -> np.ndarray:
     """:func:`score_kind` of one footprint against every catalogue kind at once, as a
-    (kinds,) array in the order of ``KIND_NAMES`` (the catalogue's): one vectorised
-    pass over the table of nominal descriptors."""
-    d = np.array([fp.length, fp.width, fp.hole_fraction, fp.solidity])
-    z = (d - _TABLE) / _SIGMAS
-    s = np.einsum("ij,ij->i", z, z)
-    off = fp.facets6 - _ROUND_FACETS
-    off = np.where(_FACETED, np.minimum(off, 0.0), np.maximum(off, 0.0))
-    return s + _ROUND * (off / _SIGMA_FACETS) ** 2
+    (kinds,) array in the order of ``KIND_NAMES`` (the catalogue's)."""
+    return score_table(np.array([fp.length]), np.array([fp.width]), np.array([fp.hole_fraction]),
+                       np.array([fp.solidity]), np.array([fp.facets6]))[0]
+
+
+def score_table(length: np.ndarray, width: np.ndarray, hole_fraction: np.ndarray,
+                solidity: np.ndarray, facets6: np.ndarray) -> np.ndarray:
+    """:func:`score_kind` of n footprints, given as descriptor arrays (n,), against every
+    catalogue kind: an (n, kinds) array, kinds in the order of ``KIND_NAMES`` (one
+    compiled pass over the table of nominal descriptors)."""
+    out = np.empty((len(length), len(KIND_NAMES)))
+    _score(length, width, hole_fraction, solidity, facets6, _TABLE, _SIGMAS, _ROUND,
+           _ROUND_FACETS, _FACETED, 1.0 / _SIGMA_FACETS**2, out)
+    return out
+
+
+@njit(cache=True)
+def _score(length, width, holes, solidity, facets6, table, sigmas, round_, round_facets,
+           faceted, facet_w, out):  # pragma: no cover (compiled)
+    for i in range(length.shape[0]):
+        d = (length[i], width[i], holes[i], solidity[i])
+        for k in range(table.shape[0]):
+            s = 0.0
+            for j in range(4):
+                z = (d[j] - table[k, j]) / sigmas[j]
+                s += z * z
+            if round_[k]:
+                off = facets6[i] - round_facets[k]
+                off = min(off, 0.0) if faceted[k] else max(off, 0.0)
+                s += off * off * facet_w
+            out[i, k] = s
+
+
+def classify_table(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`classify_kind` of every row of an (n, kinds) score array (kinds in the order
+    of ``KIND_NAMES``): (best kind's index, or -1 for unknown; confidence; fit)."""
+    n = len(scores)
+    best, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    _classify(scores, _MAX_FIT, best, conf, fit)
+    return best, conf, fit
+
+
+@njit(cache=True)
+def _classify(scores, max_fit, best, conf, fit):  # pragma: no cover (compiled)
+    for i in range(scores.shape[0]):
+        b = 0
+        for k in range(1, scores.shape[1]):
+            if scores[i, k] < scores[i, b]:
+                b = k
+        f = scores[i, b]
+        total = 0.0
+        for k in range(scores.shape[1]):
+            total += math.exp(-(scores[i, k] - f) / 2)
+        fit[i] = f
+        if f > max_fit:
+            best[i], conf[i] = -1, 0.0
+        else:
+            best[i], conf[i] = b, 1.0 / total
 
 
 def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:

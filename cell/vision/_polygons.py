@@ -1,0 +1,306 @@
+"""Shape descriptors of many footprints (polygons with holes on the table plane) at once.
+
+The detector describes every candidate footprint of a step in one call: the outline and
+hole points of all footprints are concatenated with their rays, and one compiled pass
+(numba) maps each point onto the plane at its edge height and computes, per footprint:
+
+* net area, outline area and centroid from polygon moments (Green's theorem; the
+  quantities ``cv2.moments`` gives for a contour);
+* the convex hull of the outline (Andrew's monotone chain, *Information Processing
+  Letters* 9, 1979) and its area;
+* the minimum-area enclosing rectangle: one of its sides lies on a hull edge (Freeman &
+  Shapira, *CACM* 18, 1975), so every hull edge is tried (the rectangle
+  ``cv2.minAreaRect`` finds by rotating calipers);
+* the six-fold facet strength: the 6th circular harmonic of the hull's edge directions,
+  weighted by length (Mardia & Jupp, *Directional Statistics*, 2000).
+
+Descriptors are computed in millimetres around each footprint's first outline point.
+``tests/vision/test_polygons.py`` checks them against OpenCV.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+__all__: list[str] = []  # private to cell.vision
+
+# columns of the descriptor table
+_AREA, _OUTER, _CX, _CY, _LENGTH, _WIDTH, _ANGLE, _HOLES, _SOLIDITY, _FACETS = range(10)
+
+
+@dataclass
+class PolygonSet:
+    """Descriptors of ``n`` footprints, each an array of length n.
+
+    ``area`` net area (m^2), ``outer`` the outline's area (m^2), ``centroid`` (n, 2) (m),
+    ``length``/``width`` the minimum-area rectangle's sides (m, length >= width),
+    ``rect_angle`` the long side's direction (rad, in (-pi, pi]), ``hole_fraction``,
+    ``solidity`` (outline area over hull area), ``facets6`` (0..1).
+    """
+
+    area: np.ndarray
+    outer: np.ndarray
+    centroid: np.ndarray
+    length: np.ndarray
+    width: np.ndarray
+    rect_angle: np.ndarray
+    hole_fraction: np.ndarray
+    solidity: np.ndarray
+    facets6: np.ndarray
+
+
+def describe_polygons(pts: np.ndarray, starts: np.ndarray, owner: np.ndarray,
+                      outlines: np.ndarray) -> PolygonSet:
+    """Descriptors of footprints whose polygons are concatenated in ``pts``.
+
+    Parameters
+    ----------
+    pts : (N, 2) float64, every polygon's vertices in order (metres).
+    starts : (P + 1,) int, polygon p is ``pts[starts[p]:starts[p + 1]]`` (>= 3 points).
+    owner : (P,) int, the footprint each polygon belongs to (0..n-1).
+    outlines : (n,) int, the polygon that is footprint i's outer boundary; its other
+        polygons are holes.
+    """
+    table = np.empty((len(outlines), 10))
+    _describe(np.ascontiguousarray(pts, dtype=np.float64), np.asarray(starts, np.int64),
+              np.asarray(owner, np.int64), np.asarray(outlines, np.int64), table)
+    return _as_set(table)
+
+
+def plane_footprints(rays: np.ndarray, away: np.ndarray, splits: np.ndarray, counts: np.ndarray,
+                     lo: np.ndarray, hi: np.ndarray, lo_pts: np.ndarray | None,
+                     hi_pts: np.ndarray | None, origin: np.ndarray,
+                     drop: float) -> tuple[np.ndarray, np.ndarray, PolygonSet]:
+    """Plane points and descriptors of n footprints given by rays (one compiled pass).
+
+    Parameters
+    ----------
+    rays : (N, 2) world xy travelled per metre of height along each point's ray
+        (footprint after footprint; within one, its outline then its holes).
+    away : (N,) bool, the point is on an edge facing away from the camera's nadir.
+    splits : each footprint's cumulative polygon sizes, concatenated (its outline's
+        size, then outline + first hole, ...); ``counts`` (n,) how many polygons each has.
+    lo, hi : (n,) heights above the plane (m) of each footprint's edges facing the nadir
+        and facing away; ``lo_pts``/``hi_pts`` (N,) per-point heights that replace them
+        where not NaN, or None.
+    origin : (2,) the camera's world xy; ``drop`` the plane's height below it (m, < 0).
+
+    Point k lies at ``origin + (drop + h_k) * rays[k]``. Returns (points (N, 2), polygon
+    starts (P + 1,), descriptors).
+    """
+    n_pts = len(rays)
+    if lo_pts is None:
+        lo_pts = hi_pts = np.full(n_pts, np.nan)
+    xy = np.empty((n_pts, 2))
+    starts = np.empty(len(splits) + 1, np.int64)
+    table = np.empty((len(counts), 10))
+    _plane_describe(rays, away, splits, counts, lo, hi, lo_pts, hi_pts, float(origin[0]),
+                    float(origin[1]), float(drop), xy, starts, table)
+    return xy, starts, _as_set(table)
+
+
+def _as_set(t: np.ndarray) -> PolygonSet:
+    return PolygonSet(
+        area=t[:, _AREA], outer=t[:, _OUTER], centroid=t[:, _CX : _CY + 1],
+        length=t[:, _LENGTH], width=t[:, _WIDTH], rect_angle=t[:, _ANGLE],
+        hole_fraction=t[:, _HOLES], solidity=t[:, _SOLIDITY], facets6=t[:, _FACETS],
+    )
+
+
+@njit(cache=True)
+def _plane_describe(rays, away, splits, counts, lo, hi, lo_pts, hi_pts, ox, oy, drop, xy,
+                    starts, table):  # pragma: no cover (compiled)
+    n = counts.shape[0]
+    owner = np.empty(splits.shape[0], np.int64)
+    outlines = np.empty(n, np.int64)
+    k = 0  # point index
+    p = 0  # polygon index
+    starts[0] = 0
+    for i in range(n):
+        outlines[i] = p
+        base = k
+        for _ in range(counts[i]):
+            end = base + splits[p]
+            owner[p] = i
+            starts[p + 1] = end
+            p += 1
+        for q in range(k, end):
+            h = hi_pts[q] if away[q] else lo_pts[q]
+            if h != h:  # NaN: the footprint's own height
+                h = hi[i] if away[q] else lo[i]
+            xy[q, 0] = ox + (drop + h) * rays[q, 0]
+            xy[q, 1] = oy + (drop + h) * rays[q, 1]
+        k = end
+    _describe(xy, starts, owner, outlines, table)
+
+
+def plane_rays(uv: np.ndarray, normals: np.ndarray, norm: np.ndarray | None, K: np.ndarray,
+               R: np.ndarray, nadir: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(rays (N, 2), away (N,)) of outline points ``uv`` (N, 2, pixels) with outward
+    ``normals`` (N, 2): world xy travelled per metre of height along each point's ray,
+    and whether the normal points away from the camera's ``nadir`` pixel (a top edge).
+    ``norm`` gives the points' normalised (undistorted) image coordinates where the lens
+    distorts, else None: the pinhole ``K`` maps them. ``R`` rotates camera to world."""
+    rays = np.empty((len(uv), 2))
+    away = np.empty(len(uv), np.bool_)
+    pinhole = norm is None
+    _rays(uv, uv if pinhole else norm, normals, pinhole, float(K[0, 0]), float(K[1, 1]),
+          float(K[0, 2]), float(K[1, 2]), float(K[0, 1]), np.ascontiguousarray(R, dtype=np.float64),
+          0.0 if nadir is None else float(nadir[0]), 0.0 if nadir is None else float(nadir[1]),
+          nadir is not None, rays, away)
+    return rays, away
+
+
+@njit(cache=True)
+def _rays(uv, norm, normals, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir, rays,
+          away):  # pragma: no cover (compiled)
+    for k in range(uv.shape[0]):
+        if pinhole:
+            y = (uv[k, 1] - cy) / fy
+            x = (uv[k, 0] - cx - skew * y) / fx
+        else:
+            x, y = norm[k, 0], norm[k, 1]
+        d0 = R[0, 0] * x + R[0, 1] * y + R[0, 2]
+        d1 = R[1, 0] * x + R[1, 1] * y + R[1, 2]
+        d2 = R[2, 0] * x + R[2, 1] * y + R[2, 2]
+        if abs(d2) < 1e-12:
+            d2 = -1e-12
+        rays[k, 0] = d0 / d2
+        rays[k, 1] = d1 / d2
+        away[k] = has_nadir and (normals[k, 0] * (uv[k, 0] - nx)
+                                 + normals[k, 1] * (uv[k, 1] - ny)) > 0
+
+
+@njit(cache=True)
+def _moments(pts, s, e, ox, oy):  # pragma: no cover (compiled)
+    """Signed area and first moments (mm^2, mm^3) of polygon pts[s:e] around (ox, oy)."""
+    m00 = m10 = m01 = 0.0
+    for k in range(s, e):
+        kn = k + 1 if k + 1 < e else s
+        x, y = (pts[k, 0] - ox) * 1e3, (pts[k, 1] - oy) * 1e3
+        xn, yn = (pts[kn, 0] - ox) * 1e3, (pts[kn, 1] - oy) * 1e3
+        c = x * yn - xn * y
+        m00 += c
+        m10 += (x + xn) * c
+        m01 += (y + yn) * c
+    return m00 / 2.0, m10 / 6.0, m01 / 6.0
+
+
+@njit(cache=True)
+def _hull(px, py):  # pragma: no cover (compiled)
+    """Convex hull (counter-clockwise, no collinear points) by Andrew's monotone chain."""
+    n = px.shape[0]
+    order = np.argsort(py, kind="mergesort")
+    order = order[np.argsort(px[order], kind="mergesort")]  # by x, then y
+    h = np.empty(2 * n + 1, np.int64)
+    k = 0
+    for j in range(n):  # lower hull
+        i = order[j]
+        while k >= 2 and ((px[h[k - 1]] - px[h[k - 2]]) * (py[i] - py[h[k - 2]])
+                          - (py[h[k - 1]] - py[h[k - 2]]) * (px[i] - px[h[k - 2]])) <= 0:
+            k -= 1
+        h[k] = i
+        k += 1
+    lower = k + 1
+    for j in range(n - 2, -1, -1):  # upper hull
+        i = order[j]
+        while k >= lower and ((px[h[k - 1]] - px[h[k - 2]]) * (py[i] - py[h[k - 2]])
+                              - (py[h[k - 1]] - py[h[k - 2]]) * (px[i] - px[h[k - 2]])) <= 0:
+            k -= 1
+        h[k] = i
+        k += 1
+    return h[: max(k - 1, 1)]
+
+
+@njit(cache=True)
+def _hull_shape(hx, hy):  # pragma: no cover (compiled)
+    """(area, rectangle side along the best edge, the other side, that edge's angle,
+    six-fold facet strength) of a convex polygon (counter-clockwise)."""
+    m = hx.shape[0]
+    area = 0.0
+    best = np.inf
+    w_best = h_best = ang_best = 0.0
+    total = re6 = im6 = 0.0
+    for i in range(m):
+        j = i + 1 if i + 1 < m else 0
+        dx, dy = hx[j] - hx[i], hy[j] - hy[i]
+        area += hx[i] * hy[j] - hx[j] * hy[i]
+        length = math.sqrt(dx * dx + dy * dy)
+        if length <= 0.0:
+            continue
+        ux, uy = dx / length, dy / length
+        theta = math.atan2(uy, ux)
+        total += length
+        re6 += length * math.cos(6.0 * theta)
+        im6 += length * math.sin(6.0 * theta)
+        smin = smax = tmin = tmax = 0.0
+        for q in range(m):
+            rx, ry = hx[q] - hx[i], hy[q] - hy[i]
+            s = rx * ux + ry * uy
+            t = -rx * uy + ry * ux
+            smin, smax = min(smin, s), max(smax, s)
+            tmin, tmax = min(tmin, t), max(tmax, t)
+        a = (smax - smin) * (tmax - tmin)
+        if a < best:
+            best, w_best, h_best, ang_best = a, smax - smin, tmax - tmin, theta
+    facets = math.sqrt(re6 * re6 + im6 * im6) / total if (total > 0.0 and m >= 3) else 0.0
+    return abs(area) / 2.0, w_best, h_best, ang_best, facets
+
+
+@njit(cache=True)
+def _describe(pts, starts, owner, outlines, out):  # pragma: no cover (compiled)
+    n = outlines.shape[0]
+    for i in range(n):
+        out[i, _OUTER] = out[i, _CX] = out[i, _CY] = 0.0
+        out[i, _AREA] = 0.0
+    sx_hole = np.zeros(n)
+    sy_hole = np.zeros(n)
+    for p in range(starts.shape[0] - 1):
+        i = owner[p]
+        o = starts[outlines[i]]
+        m00, m10, m01 = _moments(pts, starts[p], starts[p + 1], pts[o, 0], pts[o, 1])
+        a = abs(m00)
+        sign = 1.0 if m00 > 0 else -1.0
+        if p == outlines[i]:
+            out[i, _OUTER] = a
+            if a >= 1e-9:
+                out[i, _CX], out[i, _CY] = sign * m10, sign * m01
+        elif a >= 1e-9:
+            out[i, _AREA] += a  # hole area, for now
+            sx_hole[i] += sign * m10
+            sy_hole[i] += sign * m01
+    for i in range(n):
+        s, e = starts[outlines[i]], starts[outlines[i] + 1]
+        ox, oy = pts[s, 0], pts[s, 1]
+        a_out = out[i, _OUTER]
+        net = a_out - out[i, _AREA]
+        if net > 1e-6:
+            cx, cy = (out[i, _CX] - sx_hole[i]) / net, (out[i, _CY] - sy_hole[i]) / net
+        elif a_out >= 1e-9:
+            cx, cy = out[i, _CX] / a_out, out[i, _CY] / a_out
+        else:
+            cx = cy = 0.0
+            for k in range(s, e):
+                cx += (pts[k, 0] - ox) * 1e3
+                cy += (pts[k, 1] - oy) * 1e3
+            cx, cy = cx / (e - s), cy / (e - s)
+        px = (pts[s:e, 0] - ox) * 1e3
+        py = (pts[s:e, 1] - oy) * 1e3
+        h = _hull(px, py)
+        hull_area, w, hh, ang, facets = _hull_shape(px[h], py[h])
+        if w < hh:
+            w, hh, ang = hh, w, ang + math.pi / 2
+        out[i, _AREA] = max(net, 0.0) * 1e-6
+        out[i, _OUTER] = a_out * 1e-6
+        out[i, _CX] = ox + cx * 1e-3
+        out[i, _CY] = oy + cy * 1e-3
+        out[i, _LENGTH] = w * 1e-3
+        out[i, _WIDTH] = hh * 1e-3
+        out[i, _ANGLE] = math.atan2(math.sin(ang), math.cos(ang))
+        out[i, _HOLES] = 1.0 - net / a_out if a_out > 0 else 0.0
+        out[i, _SOLIDITY] = a_out / hull_area if hull_area > 0 else 0.0
+        out[i, _FACETS] = facets

@@ -20,13 +20,14 @@ import numpy as np
 from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.vision._blob import Blob
-from cell.vision._polygons import plane_footprints, plane_rays
+from cell.vision._kindfit import fit_blobs
+from cell.vision._polygons import as_set, plane_footprints, plane_rays
 from cell.vision.kind import (
     KIND_NAMES,
+    MAX_FIT,
+    SCORING,
     Footprint,
-    classify_table,
     footprint_of,
-    score_table,
 )
 
 __all__: list[str] = []  # private to cell.vision
@@ -107,61 +108,33 @@ class Geometry:
 
 
 class Footprints:
-    """The footprints of several blobs on the table plane, described in one pass.
+    """The footprints of several blobs on the table plane, with every silhouette edge at
+    one ``height`` above the surface (m), described in one pass; :meth:`footprint`
+    builds one footprint's :class:`~cell.vision.kind.Footprint`."""
 
-    ``items`` are (blob, lo, hi): the heights above the surface (m) of the silhouette
-    edges facing the nadir (``lo``) and facing away (``hi``), scalars or one per outline
-    and hole point. ``d`` holds every footprint's descriptors
-    (:class:`~cell.vision._polygons.PolygonSet`); ``xy`` the plane points (N, 2);
-    :meth:`footprint` builds one footprint's :class:`~cell.vision.kind.Footprint`.
-    """
-
-    def __init__(self, geo: Geometry, items: list[tuple[Blob, object, object]]) -> None:
-        blobs = [it[0] for it in items]
+    def __init__(self, geo: Geometry, blobs: list[Blob], height: float) -> None:
         geo.prepare(blobs)
-        if len(blobs) == 1:
-            rays, away, splits = blobs[0].rays, blobs[0].away, blobs[0].splits
-        else:
-            rays = np.concatenate([b.rays for b in blobs])
-            away = np.concatenate([b.away for b in blobs])
-            splits = np.concatenate([b.splits for b in blobs])
+        rays, away, splits = _concatenated(blobs)
         counts = np.array([1 + len(b.holes) for b in blobs])
-        per_point = any(isinstance(it[1], np.ndarray) for it in items)
-        lo = np.array([np.nan if isinstance(it[1], np.ndarray) else it[1] for it in items], float)
-        hi = np.array([np.nan if isinstance(it[2], np.ndarray) else it[2] for it in items], float)
-        lo_pts = hi_pts = None
-        if per_point:  # one height per point for some items (a bolt's)
-            lo_pts, hi_pts = (np.concatenate([
-                np.broadcast_to(it[c] if isinstance(it[c], np.ndarray) else np.nan, len(it[0].rays))
-                for it in items]) for c in (1, 2))
-        self.items = items
+        h = np.full(len(blobs), height)
         self.xy, self.starts, self.d = plane_footprints(
-            rays, away, splits, counts, lo, hi, lo_pts, hi_pts, geo.o[:2], geo.plane_z - geo.o[2])
+            rays, away, splits, counts, h, h, geo.o[:2], geo.plane_z - geo.o[2])
+        self.holes = counts - 1
         self.outlines = (np.cumsum(counts) - counts).tolist()
-        self._fps: dict[int, Footprint] = {}
-
-    def points(self, i: int) -> np.ndarray:
-        """Plane points (N, 2) of item ``i``: outline, then holes."""
-        p = self.outlines[i]
-        return self.xy[self.starts[p] : self.starts[p + 1 + len(self.items[i][0].holes)]]
 
     def footprint(self, i: int) -> Footprint:
-        """Item ``i``'s footprint (built once)."""
-        fp = self._fps.get(i)
-        if fp is None:
-            p, st = self.outlines[i], self.starts
-            holes = tuple(self.xy[st[q] : st[q + 1]]
-                          for q in range(p + 1, p + 1 + len(self.items[i][0].holes)))
-            fp = self._fps[i] = footprint_of(self.d, i, self.xy[st[p] : st[p + 1]], holes)
-        return fp
-
-    def scores(self) -> np.ndarray:
-        """(items, kinds) :func:`~cell.vision.kind.score_kind` of every footprint."""
-        d = self.d
-        return score_table(d.length, d.width, d.hole_fraction, d.solidity, d.facets6)
+        """Blob ``i``'s footprint."""
+        p, st = self.outlines[i], self.starts
+        holes = tuple(self.xy[st[q] : st[q + 1]] for q in range(p + 1, p + 1 + self.holes[i]))
+        return footprint_of(self.d, i, self.xy[st[p] : st[p + 1]], holes)
 
 
-_KIND_INDEX = {k: i for i, k in enumerate(KIND_NAMES)}
+def _concatenated(blobs: list[Blob]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rays, away, splits) of prepared blobs, one after the other."""
+    if len(blobs) == 1:
+        return blobs[0].rays, blobs[0].away, blobs[0].splits
+    return (np.concatenate([b.rays for b in blobs]), np.concatenate([b.away for b in blobs]),
+            np.concatenate([b.splits for b in blobs]))
 
 
 def fit_kinds(blobs: list[Blob], geo: Geometry,
@@ -176,40 +149,28 @@ def fit_kinds(blobs: list[Blob], geo: Geometry,
     """
     if not blobs:
         return []
-    mid = Footprints(geo, [(b, _MID, _MID) for b in blobs])
-    rough = mid.scores()
-    items, which = [], []  # refinement items and their (blob, kind index)
-    hopeless = []
-    for i, (b, row) in enumerate(zip(blobs, rough.tolist(), strict=True)):
-        k0 = min(range(len(row)), key=row.__getitem__)
-        hopeless.append(row[k0] > _ROUGH_HOPELESS)
-        if hopeless[-1]:
-            continue
-        k1 = min((k for k in range(len(row)) if k != k0), key=row.__getitem__)
-        for k in ((k0, k1) if row[k1] <= row[k0] + _REFINE_GAP else (k0,)):
-            if k == _BOLT:
-                lo, hi = bolt_heights(mid.points(i), mid.footprint(i))
-            else:
-                lo, hi = _EDGE_HEIGHTS[k]
-            items.append((b, lo, hi))
-            which.append((i, k))
-    refined = None
-    if items:
-        refined = Footprints(geo, items)
-        rs = refined.scores()
-        for j, (i, k) in enumerate(which):
-            rough[i, k] = rs[j, k]
-    best, conf, fit = classify_table(rough)
+    geo.prepare(blobs)
+    rays, away, splits = _concatenated(blobs)
+    counts = np.array([1 + len(b.holes) for b in blobs])
+    n = len(blobs)
+    xy = np.empty((len(rays), 2))
+    starts = np.empty(len(splits) + 1, np.int64)
+    table = np.empty((n, 10))
+    kind, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    fit_blobs(rays, away, splits, counts, float(geo.o[0]), float(geo.o[1]),
+              float(geo.plane_z - geo.o[2]), _MID, _EDGE_LO, _EDGE_HI, _BOLT,
+              KINDS["bolt"].height, *SCORING, MAX_FIT, _ROUGH_HOPELESS, _REFINE_GAP,
+              min_confidence, xy, starts, table, kind, conf, fit)
+    d = as_set(table)
     out = []
-    for i, (k, c, f) in enumerate(zip(best.tolist(), conf.tolist(), fit.tolist(), strict=True)):
-        if hopeless[i]:
-            out.append(("unknown", 0.0, math.inf, Fit(mid.footprint(i))))
-        elif k < 0 or c < min_confidence:
-            out.append(("unknown", c, f, Fit(mid.footprint(i))))
-        else:
-            j = which.index((i, k)) if (i, k) in which else None
-            fp = refined.footprint(j) if j is not None else mid.footprint(i)
-            out.append((KIND_NAMES[k], c, f, Fit(fp)))
+    p = 0
+    for i, (k, c, f) in enumerate(zip(kind.tolist(), conf.tolist(), fit.tolist(), strict=True)):
+        m = counts[i]
+        outline = xy[starts[p] : starts[p + 1]]
+        holes = tuple(xy[starts[q] : starts[q + 1]] for q in range(p + 1, p + m))
+        p += m
+        res = Fit(footprint_of(d, i, outline, holes))
+        out.append(("unknown" if k < 0 else KIND_NAMES[k], c, f, res))
     return out
 
 
@@ -224,29 +185,6 @@ def edge_heights(kind: str) -> tuple[float, float]:
     if kind == "bolt":  # a lying cylinder: its silhouette is near its axis height
         return 0.5 * h - 0.0015, 0.5 * h + 0.0015
     return 0.0, h
-
-
-def bolt_heights(xy: np.ndarray, mid: Footprint) -> tuple[np.ndarray, np.ndarray]:
-    """Per-point silhouette edge heights of a lying bolt (cell.sim.parts geometry), from
-    its outline's plane points ``xy`` (N, 2) at mid height and that footprint ``mid``.
-
-    The head (10 mm across flats, its corners 11.5 mm high, 4 mm long) stands like a
-    prism from the belt to its top; the 6 mm shank, tilted up towards the head, shows
-    its tangent lines between about 1.5 and 8.5 mm. The head is the wider end of the
-    mid-height footprint.
-    """
-    axis = np.array([math.cos(mid.rect_angle), math.sin(mid.rect_angle)])
-    s = (xy - mid.centroid) @ axis
-    t = np.abs((xy - mid.centroid) @ np.array([-axis[1], axis[0]]))
-    ends = s.max(), s.min()
-    near_max = t[s > ends[0] - 0.004]
-    near_min = t[s < ends[1] + 0.004]
-    head_at_max = (near_max.max() if near_max.size else 0) > (near_min.max() if near_min.size else 0)
-    head = s > ends[0] - 0.005 if head_at_max else s < ends[1] + 0.005
-    h = KINDS["bolt"].height
-    lo = np.where(head, 0.0, 0.0015)
-    hi = np.where(head, h, 0.0085)
-    return lo, hi
 
 
 _BOLT_END_OFFSET = 0.0014  # body origin from the middle of the bolt's ends, towards the head
@@ -269,4 +207,5 @@ def bolt_origin(fp: Footprint) -> np.ndarray:
 
 
 _BOLT = KIND_NAMES.index("bolt")
-_EDGE_HEIGHTS = [edge_heights(k) for k in KIND_NAMES]
+_EDGE_LO = np.array([edge_heights(k)[0] for k in KIND_NAMES])
+_EDGE_HI = np.array([edge_heights(k)[1] for k in KIND_NAMES])

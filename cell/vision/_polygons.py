@@ -53,27 +53,24 @@ class PolygonSet:
     facets6: np.ndarray
 
 
-def describe_polygons(pts: np.ndarray, starts: np.ndarray, owner: np.ndarray,
-                      outlines: np.ndarray) -> PolygonSet:
+def describe_polygons(pts: np.ndarray, starts: np.ndarray, outlines: np.ndarray) -> PolygonSet:
     """Descriptors of footprints whose polygons are concatenated in ``pts``.
 
     Parameters
     ----------
     pts : (N, 2) float64, every polygon's vertices in order (metres).
     starts : (P + 1,) int, polygon p is ``pts[starts[p]:starts[p + 1]]`` (>= 3 points).
-    owner : (P,) int, the footprint each polygon belongs to (0..n-1).
-    outlines : (n,) int, the polygon that is footprint i's outer boundary; its other
-        polygons are holes.
+    outlines : (n,) int, footprint i is polygons ``outlines[i]`` (its outer boundary) up
+        to ``outlines[i + 1]`` (exclusive; the last up to P): the outline, then its holes.
     """
     table = np.empty((len(outlines), 10))
     _describe(np.ascontiguousarray(pts, dtype=np.float64), np.asarray(starts, np.int64),
-              np.asarray(owner, np.int64), np.asarray(outlines, np.int64), table)
-    return _as_set(table)
+              np.asarray(outlines, np.int64), table)
+    return as_set(table)
 
 
 def plane_footprints(rays: np.ndarray, away: np.ndarray, splits: np.ndarray, counts: np.ndarray,
-                     lo: np.ndarray, hi: np.ndarray, lo_pts: np.ndarray | None,
-                     hi_pts: np.ndarray | None, origin: np.ndarray,
+                     lo: np.ndarray, hi: np.ndarray, origin: np.ndarray,
                      drop: float) -> tuple[np.ndarray, np.ndarray, PolygonSet]:
     """Plane points and descriptors of n footprints given by rays (one compiled pass).
 
@@ -85,25 +82,22 @@ def plane_footprints(rays: np.ndarray, away: np.ndarray, splits: np.ndarray, cou
     splits : each footprint's cumulative polygon sizes, concatenated (its outline's
         size, then outline + first hole, ...); ``counts`` (n,) how many polygons each has.
     lo, hi : (n,) heights above the plane (m) of each footprint's edges facing the nadir
-        and facing away; ``lo_pts``/``hi_pts`` (N,) per-point heights that replace them
-        where not NaN, or None.
+        and facing away.
     origin : (2,) the camera's world xy; ``drop`` the plane's height below it (m, < 0).
 
     Point k lies at ``origin + (drop + h_k) * rays[k]``. Returns (points (N, 2), polygon
     starts (P + 1,), descriptors).
     """
-    n_pts = len(rays)
-    if lo_pts is None:
-        lo_pts = hi_pts = np.full(n_pts, np.nan)
-    xy = np.empty((n_pts, 2))
+    xy = np.empty((len(rays), 2))
     starts = np.empty(len(splits) + 1, np.int64)
     table = np.empty((len(counts), 10))
-    _plane_describe(rays, away, splits, counts, lo, hi, lo_pts, hi_pts, float(origin[0]),
-                    float(origin[1]), float(drop), xy, starts, table)
-    return xy, starts, _as_set(table)
+    _plane_describe(rays, away, splits, counts, lo, hi, float(origin[0]), float(origin[1]),
+                    float(drop), xy, starts, table)
+    return xy, starts, as_set(table)
 
 
-def _as_set(t: np.ndarray) -> PolygonSet:
+def as_set(t: np.ndarray) -> PolygonSet:
+    """The :class:`PolygonSet` view of an (n, 10) descriptor table."""
     return PolygonSet(
         area=t[:, _AREA], outer=t[:, _OUTER], centroid=t[:, _CX : _CY + 1],
         length=t[:, _LENGTH], width=t[:, _WIDTH], rect_angle=t[:, _ANGLE],
@@ -112,10 +106,9 @@ def _as_set(t: np.ndarray) -> PolygonSet:
 
 
 @njit(cache=True)
-def _plane_describe(rays, away, splits, counts, lo, hi, lo_pts, hi_pts, ox, oy, drop, xy,
-                    starts, table):  # pragma: no cover (compiled)
+def _plane_describe(rays, away, splits, counts, lo, hi, ox, oy, drop, xy, starts,
+                    table):  # pragma: no cover (compiled)
     n = counts.shape[0]
-    owner = np.empty(splits.shape[0], np.int64)
     outlines = np.empty(n, np.int64)
     k = 0  # point index
     p = 0  # polygon index
@@ -125,17 +118,14 @@ def _plane_describe(rays, away, splits, counts, lo, hi, lo_pts, hi_pts, ox, oy, 
         base = k
         for _ in range(counts[i]):
             end = base + splits[p]
-            owner[p] = i
             starts[p + 1] = end
             p += 1
         for q in range(k, end):
-            h = hi_pts[q] if away[q] else lo_pts[q]
-            if h != h:  # NaN: the footprint's own height
-                h = hi[i] if away[q] else lo[i]
+            h = hi[i] if away[q] else lo[i]
             xy[q, 0] = ox + (drop + h) * rays[q, 0]
             xy[q, 1] = oy + (drop + h) * rays[q, 1]
         k = end
-    _describe(xy, starts, owner, outlines, table)
+    _describe(xy, starts, outlines, table)
 
 
 def plane_rays(uv: np.ndarray, normals: np.ndarray, norm: np.ndarray | None, K: np.ndarray,
@@ -252,55 +242,55 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _describe(pts, starts, owner, outlines, out):  # pragma: no cover (compiled)
+def _describe(pts, starts, outlines, out):  # pragma: no cover (compiled)
     n = outlines.shape[0]
     for i in range(n):
-        out[i, _OUTER] = out[i, _CX] = out[i, _CY] = 0.0
-        out[i, _AREA] = 0.0
-    sx_hole = np.zeros(n)
-    sy_hole = np.zeros(n)
-    for p in range(starts.shape[0] - 1):
-        i = owner[p]
-        o = starts[outlines[i]]
-        m00, m10, m01 = _moments(pts, starts[p], starts[p + 1], pts[o, 0], pts[o, 1])
-        a = abs(m00)
-        sign = 1.0 if m00 > 0 else -1.0
-        if p == outlines[i]:
-            out[i, _OUTER] = a
-            if a >= 1e-9:
-                out[i, _CX], out[i, _CY] = sign * m10, sign * m01
-        elif a >= 1e-9:
-            out[i, _AREA] += a  # hole area, for now
-            sx_hole[i] += sign * m10
-            sy_hole[i] += sign * m01
-    for i in range(n):
-        s, e = starts[outlines[i]], starts[outlines[i] + 1]
-        ox, oy = pts[s, 0], pts[s, 1]
-        a_out = out[i, _OUTER]
-        net = a_out - out[i, _AREA]
-        if net > 1e-6:
-            cx, cy = (out[i, _CX] - sx_hole[i]) / net, (out[i, _CY] - sy_hole[i]) / net
-        elif a_out >= 1e-9:
-            cx, cy = out[i, _CX] / a_out, out[i, _CY] / a_out
-        else:
-            cx = cy = 0.0
-            for k in range(s, e):
-                cx += (pts[k, 0] - ox) * 1e3
-                cy += (pts[k, 1] - oy) * 1e3
-            cx, cy = cx / (e - s), cy / (e - s)
-        px = (pts[s:e, 0] - ox) * 1e3
-        py = (pts[s:e, 1] - oy) * 1e3
-        h = _hull(px, py)
-        hull_area, w, hh, ang, facets = _hull_shape(px[h], py[h])
-        if w < hh:
-            w, hh, ang = hh, w, ang + math.pi / 2
-        out[i, _AREA] = max(net, 0.0) * 1e-6
-        out[i, _OUTER] = a_out * 1e-6
-        out[i, _CX] = ox + cx * 1e-3
-        out[i, _CY] = oy + cy * 1e-3
-        out[i, _LENGTH] = w * 1e-3
-        out[i, _WIDTH] = hh * 1e-3
-        out[i, _ANGLE] = math.atan2(math.sin(ang), math.cos(ang))
-        out[i, _HOLES] = 1.0 - net / a_out if a_out > 0 else 0.0
-        out[i, _SOLIDITY] = a_out / hull_area if hull_area > 0 else 0.0
-        out[i, _FACETS] = facets
+        last = outlines[i + 1] if i + 1 < n else starts.shape[0] - 1
+        describe_one(pts, starts[outlines[i] : last + 1], out[i])
+
+
+@njit(cache=True)
+def describe_one(pts, pstarts, row):  # pragma: no cover (compiled)
+    """Descriptors (a row of the table, see ``PolygonSet``) of one footprint whose
+    outline is ``pts[pstarts[0]:pstarts[1]]`` and holes the following polygons."""
+    s, e = pstarts[0], pstarts[1]
+    ox, oy = pts[s, 0], pts[s, 1]
+    m00, sx, sy = _moments(pts, s, e, ox, oy)
+    a_out = abs(m00)
+    sign = 1.0 if m00 > 0 else -1.0
+    sx, sy = (sign * sx, sign * sy) if a_out >= 1e-9 else (0.0, 0.0)
+    holes = hx = hy = 0.0
+    for q in range(1, pstarts.shape[0] - 1):
+        h00, h10, h01 = _moments(pts, pstarts[q], pstarts[q + 1], ox, oy)
+        if abs(h00) >= 1e-9:
+            hs = 1.0 if h00 > 0 else -1.0
+            holes += abs(h00)
+            hx += hs * h10
+            hy += hs * h01
+    net = a_out - holes
+    if net > 1e-6:
+        cx, cy = (sx - hx) / net, (sy - hy) / net
+    elif a_out >= 1e-9:
+        cx, cy = sx / a_out, sy / a_out
+    else:
+        cx = cy = 0.0
+        for k in range(s, e):
+            cx += (pts[k, 0] - ox) * 1e3
+            cy += (pts[k, 1] - oy) * 1e3
+        cx, cy = cx / (e - s), cy / (e - s)
+    px = (pts[s:e, 0] - ox) * 1e3
+    py = (pts[s:e, 1] - oy) * 1e3
+    h = _hull(px, py)
+    hull_area, w, hh, ang, facets = _hull_shape(px[h], py[h])
+    if w < hh:
+        w, hh, ang = hh, w, ang + math.pi / 2
+    row[_AREA] = max(net, 0.0) * 1e-6
+    row[_OUTER] = a_out * 1e-6
+    row[_CX] = ox + cx * 1e-3
+    row[_CY] = oy + cy * 1e-3
+    row[_LENGTH] = w * 1e-3
+    row[_WIDTH] = hh * 1e-3
+    row[_ANGLE] = math.atan2(math.sin(ang), math.cos(ang))
+    row[_HOLES] = 1.0 - net / a_out if a_out > 0 else 0.0
+    row[_SOLIDITY] = a_out / hull_area if hull_area > 0 else 0.0
+    row[_FACETS] = facets

@@ -170,7 +170,7 @@ class PartDetector:
         if not blobs:
             return []
         st = self.settings
-        mid = Footprints(geo, [(b, _MID, _MID) for b in blobs])
+        mid = Footprints(geo, blobs, _MID)
         out = []
         for i, blob in enumerate(blobs):
             fp = mid.footprint(i)

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from numba import njit
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
+from cell.vision._kindfit import classify_rows, score_rows
 from cell.vision._polygons import PolygonSet, describe_polygons
 
 __all__ = [
@@ -92,8 +92,7 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
     hole_list = [h for h in (np.asarray(h, dtype=np.float64) for h in holes) if h.shape[0] >= 3]
     polys = [outline, *hole_list]
     starts = np.concatenate(([0], np.cumsum([len(p) for p in polys])))
-    d = describe_polygons(np.concatenate(polys), starts, np.zeros(len(polys), np.intp),
-                          np.zeros(1, np.intp))
+    d = describe_polygons(np.concatenate(polys), starts, np.zeros(1, np.intp))
     return footprint_of(d, 0, outline, tuple(hole_list))
 
 
@@ -192,6 +191,9 @@ _SIGMAS = np.array([_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE, _SIGMA_SOLIDITY])
 _ROUND = np.array([k in _FACETS6 for k in KIND_NAMES])
 _ROUND_FACETS = np.array([_FACETS6.get(k, 0.0) for k in KIND_NAMES])
 _FACETED = np.array([k == "hex_nut" for k in KIND_NAMES])
+# the scoring tables, as the compiled scorers (cell.vision._kindfit) take them
+SCORING = (_TABLE, _SIGMAS, _ROUND, _ROUND_FACETS, _FACETED, 1.0 / _SIGMA_FACETS**2)
+MAX_FIT = _MAX_FIT
 
 
 def score_kinds(fp: Footprint) -> np.ndarray:
@@ -206,27 +208,12 @@ def score_table(length: np.ndarray, width: np.ndarray, hole_fraction: np.ndarray
     """:func:`score_kind` of n footprints, given as descriptor arrays (n,), against every
     catalogue kind: an (n, kinds) array, kinds in the order of ``KIND_NAMES`` (one
     compiled pass over the table of nominal descriptors)."""
+    table = np.zeros((len(length), 10))
+    table[:, 4], table[:, 5], table[:, 7] = length, width, hole_fraction
+    table[:, 8], table[:, 9] = solidity, facets6
     out = np.empty((len(length), len(KIND_NAMES)))
-    _score(length, width, hole_fraction, solidity, facets6, _TABLE, _SIGMAS, _ROUND,
-           _ROUND_FACETS, _FACETED, 1.0 / _SIGMA_FACETS**2, out)
+    score_rows(table, *SCORING, out)
     return out
-
-
-@njit(cache=True)
-def _score(length, width, holes, solidity, facets6, table, sigmas, round_, round_facets,
-           faceted, facet_w, out):  # pragma: no cover (compiled)
-    for i in range(length.shape[0]):
-        d = (length[i], width[i], holes[i], solidity[i])
-        for k in range(table.shape[0]):
-            s = 0.0
-            for j in range(4):
-                z = (d[j] - table[k, j]) / sigmas[j]
-                s += z * z
-            if round_[k]:
-                off = facets6[i] - round_facets[k]
-                off = min(off, 0.0) if faceted[k] else max(off, 0.0)
-                s += off * off * facet_w
-            out[i, k] = s
 
 
 def classify_table(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -234,26 +221,8 @@ def classify_table(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     of ``KIND_NAMES``): (best kind's index, or -1 for unknown; confidence; fit)."""
     n = len(scores)
     best, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    _classify(scores, _MAX_FIT, best, conf, fit)
+    classify_rows(np.ascontiguousarray(scores, dtype=np.float64), _MAX_FIT, best, conf, fit)
     return best, conf, fit
-
-
-@njit(cache=True)
-def _classify(scores, max_fit, best, conf, fit):  # pragma: no cover (compiled)
-    for i in range(scores.shape[0]):
-        b = 0
-        for k in range(1, scores.shape[1]):
-            if scores[i, k] < scores[i, b]:
-                b = k
-        f = scores[i, b]
-        total = 0.0
-        for k in range(scores.shape[1]):
-            total += math.exp(-(scores[i, k] - f) / 2)
-        fit[i] = f
-        if f > max_fit:
-            best[i], conf[i] = -1, 0.0
-        else:
-            best[i], conf[i] = b, 1.0 / total
 
 
 def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:

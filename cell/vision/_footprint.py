@@ -58,10 +58,10 @@ class Geometry:
         nad = camera.K @ (self.R.T @ np.array([0.0, 0.0, -1.0]))
         self.nadir = nad[:2] / nad[2] if nad[2] > 1e-9 else None
         c = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])
-        centre = self.o[:2] + (plane_z - self.o[2]) * self._rays(c, np.zeros((2, 2)))[0]
+        centre = self.o[:2] + (plane_z - self.o[2]) * self.plane_rays(c, np.zeros((2, 2)))[0]
         self.m_per_px = float(np.linalg.norm(centre[1] - centre[0]))
 
-    def _rays(self, uv: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def plane_rays(self, uv: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~cell.vision._polygons.plane_rays` of pixels ``uv`` (N, 2), lens
         distortion removed (as :func:`cell.vision.geometry.pixel_to_table`)."""
         norm = None
@@ -90,7 +90,7 @@ class Geometry:
                 sizes.append(sizes[-1] + len(h))
         allp = np.concatenate(pts) if len(pts) > 1 else pts[0]
         alln = np.concatenate(nrm) if len(nrm) > 1 else nrm[0]
-        rays, away = self._rays(allp, alln)
+        rays, away = self.plane_rays(allp, alln)
         k = start = 0
         for b in todo:
             m = 1 + len(b.holes)

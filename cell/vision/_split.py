@@ -12,7 +12,6 @@ are.
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import cv2
@@ -161,29 +160,45 @@ def _polygon_cuts(blob: Blob, view: FrameView):
             continue
         if cv2.pointPolygonTest(outline, (float(mid[0]), float(mid[1])), False) < 0:
             continue  # the cut runs outside the blob
-        pieces = [_sub_blob(blob, np.arange(fi, fj + 1)),
-                  _sub_blob(blob, np.arange(fj, n + fi + 1) % n)]
+        pieces = [_sub_blob(blob, np.arange(fi, fj + 1), view),
+                  _sub_blob(blob, np.arange(fj, n + fi + 1) % n, view)]
         if all(cv2.contourArea(p.contour.astype(np.float32)) >= 30 for p in pieces):
             yield pieces
 
 
-def _sub_blob(blob: Blob, idx: np.ndarray) -> Blob:
-    """The piece of a (prepared) blob made of its outline points ``idx`` (closed by a
-    straight edge) and the holes whose first point lies inside that outline."""
-    contour = blob.contour[idx]
-    holes, parts, sizes = [], [idx], [len(idx)]
+def _sub_blob(blob: Blob, idx: np.ndarray, view: FrameView) -> Blob:
+    """The piece of a (prepared) blob made of its outline points ``idx`` closed by a
+    straight cut, sampled every pixel as a traced boundary would be (so that the cut
+    weighs in the outline's chords as much as a traced edge of its length, not more),
+    and the holes whose first point lies inside that outline."""
+    contour, normals = blob.contour[idx], blob.normals[idx]
+    a, b = contour[-1], contour[0]  # the cut runs from the last point back to the first
+    steps = int(math.hypot(*(b - a)))
+    rays, away = blob.rays[idx], blob.away[idx]
+    if steps >= 2:
+        t = (np.arange(1, steps) / steps)[:, None]
+        cut = a + t * (b - a)
+        out = np.array([b[1] - a[1], a[0] - b[0]]) / math.hypot(*(b - a))
+        if np.dot(out, contour.mean(axis=0) - cut[len(cut) // 2]) > 0:
+            out = -out  # the piece lies on the other side: point away from it
+        cut_normals = np.broadcast_to(out, cut.shape)
+        cut_rays, cut_away = view.geo.plane_rays(cut, cut_normals)
+        contour, normals = np.concatenate((contour, cut)), np.concatenate((normals, cut_normals))
+        rays, away = np.concatenate((rays, cut_rays)), np.concatenate((away, cut_away))
+    holes, h_rays, h_away, sizes = [], [rays], [away], [len(contour)]
     cuts = blob.splits
     for k, (h, hn) in enumerate(blob.holes):
         if cv2.pointPolygonTest(contour.astype(np.float32), (float(h[0, 0]), float(h[0, 1])), False) > 0:
             holes.append((h, hn))
-            parts.append(np.arange(cuts[k], cuts[k + 1]))
-            sizes.append(len(h))
-    take = np.concatenate(parts) if len(parts) > 1 else idx
+            h_rays.append(blob.rays[cuts[k] : cuts[k + 1]])
+            h_away.append(blob.away[cuts[k] : cuts[k + 1]])
+            sizes.append(sizes[-1] + len(h))
     lo, hi = np.floor(contour.min(axis=0)), np.ceil(contour.max(axis=0))
     box = (int(lo[0]), int(lo[1]), int(hi[0] - lo[0]) + 1, int(hi[1] - lo[1]) + 1)
-    piece = Blob(contour, blob.normals[idx], holes, box, False)
-    piece.rays, piece.away = blob.rays[take], blob.away[take]
-    piece.splits = np.array(list(itertools.accumulate(sizes)))
+    piece = Blob(contour, normals, holes, box, False)
+    piece.rays = np.concatenate(h_rays) if holes else rays
+    piece.away = np.concatenate(h_away) if holes else away
+    piece.splits = np.array(sizes)
     return piece
 
 

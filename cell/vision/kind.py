@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numba import njit
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
@@ -111,20 +112,6 @@ def footprint_of(d: PolygonSet, i: int, outline: np.ndarray,
         solidity=float(d.solidity[i]),
         facets6=float(d.facets6[i]),
     )
-
-
-def _unit_power(u: np.ndarray, n: int) -> np.ndarray:
-    """``u**n`` for complex ``u`` by repeated multiplication (numpy's complex power goes
-    through exp/log and is several times slower)."""
-    out = None
-    base = u
-    while n:
-        if n & 1:
-            out = base if out is None else out * base
-        n >>= 1
-        if n:
-            base = base * base
-    return out if out is not None else np.ones_like(u)
 
 
 # Six-fold facet strength expected of the round kinds (on the bench's tune seeds, hulls of
@@ -257,20 +244,33 @@ def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.
     iteratively reweighted (M-estimator) mean: chords across corners and along ragged
     stretches of a noisy outline, far from the flats' direction, count less.
     """
-    p = np.ascontiguousarray(outline, dtype=np.float64).view(np.complex128).ravel()
-    if len(p) > step:  # chords p[i + step] - p[i], wrapped (np.roll without its copies)
-        z = np.empty_like(p)
-        np.subtract(p[step:], p[:-step], out=z[:-step])
-        np.subtract(p[:step], p[-step:], out=z[-step:])
-    else:
-        z = np.roll(p, -step) - p
-    length = np.abs(z)
-    e = _unit_power(z / np.maximum(length, 1e-300), n)  # exp(i * n * psi)
-    mean = np.dot(length, e)
+    p = np.ascontiguousarray(outline, dtype=np.float64)
+    return _flat_angle_kernel(p, n, step, kappa, iterations)
+
+
+@njit(cache=True)
+def _flat_angle_kernel(p, n, step, kappa, iterations):  # pragma: no cover (compiled)
+    m = p.shape[0]
+    e = np.empty(m, np.complex128)  # exp(i * n * psi) of each chord p[k + step] - p[k]
+    length = np.empty(m)
+    mean = 0j
+    for k in range(m):
+        j = (k + step) % m
+        dx, dy = p[j, 0] - p[k, 0], p[j, 1] - p[k, 1]
+        length[k] = math.sqrt(dx * dx + dy * dy)
+        u = complex(dx, dy) / max(length[k], 1e-300)
+        w = 1.0 + 0j
+        for _ in range(n):
+            w *= u
+        e[k] = w
+        mean += length[k] * w
     for _ in range(iterations):
-        unit = np.conj(mean) / max(abs(mean), 1e-300)
-        mean = np.dot(length * np.exp(kappa * (np.real(e * unit) - 1.0)), e)
-    return float(np.angle(mean) / n + math.pi / 2)
+        unit = mean.conjugate() / max(abs(mean), 1e-300)
+        new = 0j
+        for k in range(m):
+            new += length[k] * math.exp(kappa * ((e[k] * unit).real - 1.0)) * e[k]
+        mean = new
+    return math.atan2(mean.imag, mean.real) / n + math.pi / 2
 
 
 def _second_moment_angle(outline: np.ndarray) -> float:

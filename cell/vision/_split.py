@@ -154,50 +154,49 @@ def _polygon_cuts(blob: Blob, view: FrameView):
     pairs.sort()
     view.geo.prepare([blob])
     n = len(outline)
+    c, nr = blob.contour, blob.normals
+    # which side of the direction of travel the outward normals lie on (+1: left turn)
+    side = 1.0 if (c[1, 0] - c[0, 0]) * nr[0, 1] - (c[1, 1] - c[0, 1]) * nr[0, 0] > 0 else -1.0
     for _, fi, fj in pairs[:6]:
         mid = (outline[fi] + outline[fj]) / 2.0
         if fj - fi < 8 or n - (fj - fi) < 8:
             continue
         if cv2.pointPolygonTest(outline, (float(mid[0]), float(mid[1])), False) < 0:
             continue  # the cut runs outside the blob
-        pieces = [_sub_blob(blob, np.arange(fi, fj + 1), view),
-                  _sub_blob(blob, np.arange(fj, n + fi + 1) % n, view)]
+        # the cut from point fj back to fi, sampled every pixel as a traced boundary is
+        # (so its chords weigh in the yaw as much as a traced edge of its length)
+        a, b = c[fj], c[fi]
+        steps = max(int(math.hypot(*(b - a))), 1)
+        cut = a + (np.arange(1, steps) / steps)[:, None] * (b - a)
+        d = (b - a) / max(math.hypot(*(b - a)), 1e-9)
+        out = np.broadcast_to(side * np.array([-d[1], d[0]]), cut.shape)
+        rays, away = view.geo.plane_rays(cut, out)
+        pieces = [_sub_blob(blob, np.arange(fi, fj + 1), cut, out, rays, away),
+                  _sub_blob(blob, np.arange(fj, n + fi + 1) % n, cut[::-1], -out, rays[::-1],
+                            ~away[::-1])]
         if all(cv2.contourArea(p.contour.astype(np.float32)) >= 30 for p in pieces):
             yield pieces
 
 
-def _sub_blob(blob: Blob, idx: np.ndarray, view: FrameView) -> Blob:
-    """The piece of a (prepared) blob made of its outline points ``idx`` closed by a
-    straight cut, sampled every pixel as a traced boundary would be (so that the cut
-    weighs in the outline's chords as much as a traced edge of its length, not more),
-    and the holes whose first point lies inside that outline."""
-    contour, normals = blob.contour[idx], blob.normals[idx]
-    a, b = contour[-1], contour[0]  # the cut runs from the last point back to the first
-    steps = int(math.hypot(*(b - a)))
-    rays, away = blob.rays[idx], blob.away[idx]
-    if steps >= 2:
-        t = (np.arange(1, steps) / steps)[:, None]
-        cut = a + t * (b - a)
-        out = np.array([b[1] - a[1], a[0] - b[0]]) / math.hypot(*(b - a))
-        if np.dot(out, contour.mean(axis=0) - cut[len(cut) // 2]) > 0:
-            out = -out  # the piece lies on the other side: point away from it
-        cut_normals = np.broadcast_to(out, cut.shape)
-        cut_rays, cut_away = view.geo.plane_rays(cut, cut_normals)
-        contour, normals = np.concatenate((contour, cut)), np.concatenate((normals, cut_normals))
-        rays, away = np.concatenate((rays, cut_rays)), np.concatenate((away, cut_away))
-    holes, h_rays, h_away, sizes = [], [rays], [away], [len(contour)]
+def _sub_blob(blob: Blob, idx: np.ndarray, cut: np.ndarray, cut_normals: np.ndarray,
+              cut_rays: np.ndarray, cut_away: np.ndarray) -> Blob:
+    """The piece of a (prepared) blob made of its outline points ``idx`` closed by the
+    ``cut`` points (with their normals, rays and top-edge flags), and the holes whose
+    first point lies inside that outline."""
+    contour = np.concatenate((blob.contour[idx], cut))
+    normals = np.concatenate((blob.normals[idx], cut_normals))
+    rays = [blob.rays[idx], cut_rays]
+    away = [blob.away[idx], cut_away]
+    holes, sizes = [], [len(contour)]
     cuts = blob.splits
     for k, (h, hn) in enumerate(blob.holes):
         if cv2.pointPolygonTest(contour.astype(np.float32), (float(h[0, 0]), float(h[0, 1])), False) > 0:
             holes.append((h, hn))
-            h_rays.append(blob.rays[cuts[k] : cuts[k + 1]])
-            h_away.append(blob.away[cuts[k] : cuts[k + 1]])
+            rays.append(blob.rays[cuts[k] : cuts[k + 1]])
+            away.append(blob.away[cuts[k] : cuts[k + 1]])
             sizes.append(sizes[-1] + len(h))
-    lo, hi = np.floor(contour.min(axis=0)), np.ceil(contour.max(axis=0))
-    box = (int(lo[0]), int(lo[1]), int(hi[0] - lo[0]) + 1, int(hi[1] - lo[1]) + 1)
-    piece = Blob(contour, normals, holes, box, False)
-    piece.rays = np.concatenate(h_rays) if holes else rays
-    piece.away = np.concatenate(h_away) if holes else away
+    piece = Blob(contour, normals, holes, cv2.boundingRect(contour.astype(np.float32)), False)
+    piece.rays, piece.away = np.concatenate(rays), np.concatenate(away)
     piece.splits = np.array(sizes)
     return piece
 

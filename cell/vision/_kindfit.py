@@ -40,7 +40,7 @@ def _score(row, k, nominal, sigmas, round_, round_facets, faceted, facet_w):  # 
     d = (row[_LENGTH], row[_WIDTH], row[_HOLES], row[_SOLIDITY])
     s = 0.0
     for j in range(4):
-        z = (d[j] - nominal[k, j]) / sigmas[j]
+        z = (d[j] - nominal[k, j]) / sigmas[k, j]
         s += z * z
     if round_[k]:
         off = row[_FACETS] - round_facets[k]

@@ -35,10 +35,15 @@ _CORE_DEPTH = 2
 Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint, fit
 
 
-def split_blob(blob: Blob, view: FrameView, depth: int = 0) -> list[tuple[Blob, str, float, Fit]]:
+def split_blob(blob: Blob, view: FrameView) -> list[tuple[Blob, str, float, Fit]]:
     """Pieces (blob, kind, confidence, footprint) of a blob of touching parts, or [] when
     no cut gives pieces that fit their kinds (mean fit below ``_ACCEPT``), or when the
     blob is too small to hold two parts."""
+    return [p[:4] for p in _split(blob, view, 0)]
+
+
+def _split(blob: Blob, view: FrameView, depth: int) -> list[Piece]:
+    """:func:`split_blob` at recursion ``depth``, each piece with its fit score."""
     if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
         return []
     best: list[Piece] = []
@@ -74,7 +79,7 @@ def split_blob(blob: Blob, view: FrameView, depth: int = 0) -> list[tuple[Blob, 
         p[3].centroid_px = px_centroid(p[0])
         if p[0].roi is None:
             p[0].roi = _piece_roi(p[0], blob)
-    return [p[:4] for p in best]
+    return best
 
 
 def _may_split(piece: Piece, view: FrameView) -> bool:
@@ -84,16 +89,15 @@ def _may_split(piece: Piece, view: FrameView) -> bool:
 def _split_further(pieces: list[Piece], view: FrameView, depth: int, *,
                    unknown_only: bool = False) -> list[Piece]:
     """The pieces with each unknown one (and unless ``unknown_only`` each ill-fitting
-    one) replaced by its own pieces (counted as fitting at ``_GOOD``); [] when an unknown
-    piece does not split."""
+    one) replaced by its own pieces; [] when an unknown piece does not split."""
     out: list[Piece] = []
     for p in pieces:
         if p[1] != "unknown" and (unknown_only or p[4] < _ACCEPT):
             out.append(p)
             continue
-        more = split_blob(p[0], view, depth + 1) if _may_split(p, view) else []
+        more = _split(p[0], view, depth + 1) if _may_split(p, view) else []
         if more:
-            out.extend((*m, _GOOD) for m in more)
+            out.extend(more)
         elif p[1] == "unknown":
             return []
         else:

@@ -43,6 +43,9 @@ __all__ = [
 
 _SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
 _SIGMA_HOLE = 0.09  # tolerance on the hole fraction
+# ... of a kind without a hole: a hole there is another part's (a nut lying in an L
+# bracket's inner corner makes the pair's outline bracket-like, but adds the nut's hole)
+_SIGMA_NO_HOLE = 0.035
 _SIGMA_SOLIDITY = 0.07
 _MAX_FIT = 16.0  # a summed squared z-score above this fits no kind
 
@@ -158,6 +161,7 @@ def score_kind(fp: Footprint, kind: str) -> float:
     if kind not in KINDS:
         raise VisionError(f"score_kind: unknown kind {kind!r}; valid: {', '.join(KINDS)}")
     length, width, hole, solidity = _NOMINAL[kind]
+    sigma_hole = _SIGMA_HOLE if hole > 0 else _SIGMA_NO_HOLE
     facets = 0.0
     if kind in _FACETS6:  # one-sided: sharper flats than a render's still make a hex nut
         off = fp.facets6 - _FACETS6[kind]
@@ -165,7 +169,7 @@ def score_kind(fp: Footprint, kind: str) -> float:
     return (
         ((fp.length - length) / _SIGMA_SIZE) ** 2
         + ((fp.width - width) / _SIGMA_SIZE) ** 2
-        + ((fp.hole_fraction - hole) / _SIGMA_HOLE) ** 2
+        + ((fp.hole_fraction - hole) / sigma_hole) ** 2
         + ((fp.solidity - solidity) / _SIGMA_SOLIDITY) ** 2
         + facets
     )
@@ -174,7 +178,8 @@ def score_kind(fp: Footprint, kind: str) -> float:
 _NOMINAL = {name: nominal_descriptors(k) for name, k in KINDS.items()}
 KIND_NAMES = tuple(KINDS)  # the order of :func:`score_kinds`
 _TABLE = np.array([_NOMINAL[k] for k in KIND_NAMES])  # (kinds, 4) nominal descriptors
-_SIGMAS = np.array([_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE, _SIGMA_SOLIDITY])
+_SIGMAS = np.array([[_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE if _NOMINAL[k][2] > 0 else _SIGMA_NO_HOLE,
+                     _SIGMA_SOLIDITY] for k in KIND_NAMES])  # (kinds, 4)
 _ROUND = np.array([k in _FACETS6 for k in KIND_NAMES])
 _ROUND_FACETS = np.array([_FACETS6.get(k, 0.0) for k in KIND_NAMES])
 _FACETED = np.array([k == "hex_nut" for k in KIND_NAMES])

@@ -209,3 +209,22 @@ def bolt_origin(fp: Footprint) -> np.ndarray:
 _BOLT = KIND_NAMES.index("bolt")
 _EDGE_LO = np.array([edge_heights(k)[0] for k in KIND_NAMES])
 _EDGE_HI = np.array([edge_heights(k)[1] for k in KIND_NAMES])
+
+
+def warm_up() -> None:
+    """Load (or compile, on the very first run) every compiled kernel of kind fitting and
+    footprint description, on a made-up square blob, so a detector's first frame is as
+    fast as its others."""
+    t = np.linspace(0.0, 2 * np.pi, 40, endpoint=False)
+    ring = np.stack([320 + 20 * np.cos(t), 240 + 20 * np.sin(t)], axis=1)
+    normals = np.stack([np.cos(t), np.sin(t)], axis=1)
+    K = np.array([[600.0, 0, 319.5], [0, 600.0, 239.5], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    T[2, 3] = 0.5
+    geo = Geometry(CameraModel(640, 480, K, np.zeros(5), T), 0.0)
+    for distorted in (False, True):
+        geo._distorted = distorted
+        blob = Blob(ring, normals, [(0.5 * ring + 160, -normals)], (300, 220, 41, 41), False)
+        fit_kinds([blob], geo, 0.5)
+        Footprints(geo, [blob], _MID).footprint(0)

@@ -42,6 +42,7 @@ from cell.errors import VisionError
 from cell.vision._blob import Blob, px_centroid
 from cell.vision._checks import check_colour
 from cell.vision._footprint import _MID, Fit, Footprints, Geometry, bolt_origin, fit_kinds
+from cell.vision._footprint import warm_up as _warm_up
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._split import split_blob
 from cell.vision.kind import footprint_yaw
@@ -100,6 +101,7 @@ class PartDetector:
             raise VisionError(
                 f"argument 'settings': expected VisionSettings, got {type(settings).__name__}"
             )
+        _warm_up()
 
     def detect(self, image: np.ndarray, camera: CameraModel) -> list[Detection]:
         """Detections in ``image`` (uint8 RGB, (H, W, 3)) seen by ``camera``."""

@@ -173,7 +173,7 @@ def _polygon_cuts(blob: Blob, view: FrameView):
         steps = max(int(math.hypot(*(b - a))), 1)
         cut = a + (np.arange(1, steps) / steps)[:, None] * (b - a)
         d = (b - a) / max(math.hypot(*(b - a)), 1e-9)
-        out = np.broadcast_to(side * np.array([-d[1], d[0]]), cut.shape)
+        out = np.tile(side * np.array([-d[1], d[0]]), (len(cut), 1))
         rays, away = view.geo.plane_rays(cut, out)
         pieces = [_sub_blob(blob, np.arange(fi, fj + 1), cut, out, rays, away),
                   _sub_blob(blob, np.arange(fj, n + fi + 1) % n, cut[::-1], -out, rays[::-1],

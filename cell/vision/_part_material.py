@@ -14,6 +14,8 @@ give at each interior pixel what they give on that part's patch alone.
 
 from __future__ import annotations
 
+from itertools import accumulate
+
 import cv2
 import numpy as np
 
@@ -79,7 +81,7 @@ def _mosaic(patches: list[np.ndarray], masks: list[np.ndarray]) -> tuple[np.ndar
     into a frame around it (``cv2.BORDER_REFLECT_101``), and the flat indices of their
     masks' (uint8 (h, w)) nonzero pixels there, patch after patch, each in row-major order."""
     p = SUPPORT
-    tops = np.cumsum([0] + [m.shape[0] + 2 * p for m in masks]).tolist()
+    tops = list(accumulate((m.shape[0] + 2 * p for m in masks), initial=0))
     width = max(m.shape[1] for m in masks) + 2 * p
     mosaic = np.zeros((tops[-1], width, 3), np.uint8)
     inside = np.zeros((tops[-1], width), np.uint8)

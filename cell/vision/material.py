@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import cv2
 import numpy as np
@@ -133,36 +134,39 @@ def mosaic_features(
     on each part's run of pixels.
     """
     img = np.ascontiguousarray(img)
-    n_all = np.asarray(counts, dtype=np.intp)
+    starts = list(accumulate(counts[:-1], initial=0))
     pix = img.reshape(-1, 3).take(at, axis=0)
-    means = np.add.reduceat(pix, _starts(n_all), axis=0, dtype=np.float64)
-    means *= (1.0 / n_all)[:, None]  # the integer sums times 1/n, as cv2.mean(patch, mask)
+    means = np.add.reduceat(pix, starts, axis=0, dtype=np.float64)
+    means *= [[1.0 / n] for n in counts]  # the integer sums times 1/n, as cv2.mean scales
     # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
     # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
     # shows in the gradient of the smoothed image; the flatter half of the part is kept.
     grey = cv2.blur(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY), (3, 3))
-    gx, gy = (g.ravel().take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
-    slope = gx * gx + gy * gy  # 3x3 Sobel (cv2.Sobel's), squared: exact integers
-    lit = grey.ravel().take(at)
-    norms, slope_q, lit_q = _part_medians(means, n_all, slope, lit)
-    flat = slope <= np.repeat(slope_q, n_all)
-    flat &= lit >= np.repeat(lit_q, n_all)  # and the lit half: off the shadow terminator
+    gx, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
+    gx *= gx
+    gy *= gy
+    gx += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
+    lit = grey.reshape(-1).take(at)
+    slope_q = _upper_medians(gx.copy(), starts, counts)
+    lit_q = _upper_medians(lit.copy(), starts, counts)
+    flat = gx <= np.repeat(slope_q, counts)
+    flat &= lit >= np.repeat(lit_q, counts)  # and the lit half: off the shadow terminator
     # the high-pass residual (pixel less its 3x3 mean) there only
     kept = np.flatnonzero(flat)
     local = cv2.blur(img, (3, 3)).reshape(-1, 3).take(at.take(kept), axis=0)
     resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
-    m_all = np.add.reduceat(flat, _starts(n_all), dtype=np.intp)
-    units = means / np.maximum(norms, 1e-300)[:, None]
-    units[norms <= 1e-6] = 1 / math.sqrt(3)
-    par, orth2 = _along_and_across(resid, units.astype(np.float32), m_all)
-    stats = _robust_scales(par, orth2, m_all)
-    unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).ravel()
-    unclipped = (np.add.reduceat(unclipped, _starts(n_all), dtype=np.intp) // 255).tolist()
+    kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
+    norms = [math.sqrt(m @ m) for m in means]
+    units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
+                      for m, r in zip(means, norms, strict=True)])
+    par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
+    stats = _robust_scales(par, orth2, kept_n)
+    unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)
+    unclipped = np.add.reduceat(unclipped, starts, dtype=np.intp).tolist()
     albedo = means / np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
-    albedo *= np.asarray(belt_rgb, dtype=np.float64)
+    albedo *= belt_rgb
     out = []
-    for i, (n, m, norm, (s_par, s_noise2)) in enumerate(
-            zip(counts, m_all.tolist(), norms.tolist(), stats, strict=True)):
+    for i, (n, m, norm, (s_par, s_noise2)) in enumerate(zip(counts, kept_n, norms, stats, strict=True)):
         s_noise = math.sqrt(max(s_noise2, 0.0)) / 1.1774  # Rayleigh median
         s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
         grain_var = s_par**2 - s_noise**2
@@ -172,72 +176,46 @@ def mosaic_features(
             albedo=albedo[i],
             grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
             grain_z=grain_var / se,
-            clipped=1.0 - unclipped[i] / n,
+            clipped=1.0 - unclipped[i] / (255 * n),  # = count / n: the same quotient
             pixels=n,
             grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
         ))
     return out
 
 
-def _starts(counts: np.ndarray) -> np.ndarray:
-    """Where each run starts in an array of runs of ``counts`` (each > 0) elements."""
-    starts = np.zeros(len(counts), np.intp)
-    np.cumsum(counts[:-1], out=starts[1:])
-    return starts
+def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> list:
+    """Element ``n // 2`` in order (``ndarray.partition``) of each run of ``values``; the
+    runs are partitioned in place."""
+    out = []
+    for s, n in zip(starts, counts, strict=True):
+        run = values[s : s + n]
+        run.partition(n // 2)
+        out.append(run[n // 2])
+    return out
 
 
-def _part_medians(means: np.ndarray, counts: np.ndarray, slope: np.ndarray, lit: np.ndarray):
-    """Each part's colour norm (``mean @ mean``, square-rooted) and the upper medians
-    (element ``n // 2`` in order) of its runs of ``slope`` and ``lit``."""
-    slope_c, lit_c = slope.copy(), lit.copy()
-    slope_q, lit_q = np.empty_like(slope, shape=len(counts)), np.empty_like(lit, shape=len(counts))
-    norms = np.empty(len(counts))
-    s = 0
-    for i, n in enumerate(counts.tolist()):
-        e, q = s + n, n // 2
-        a, b = slope_c[s:e], lit_c[s:e]
-        a.partition(q)
-        b.partition(q)
-        slope_q[i], lit_q[i] = a[q], b[q]
-        norms[i] = math.sqrt(means[i] @ means[i])
-        s = e
-    return norms, slope_q, lit_q
-
-
-def _along_and_across(resid: np.ndarray, units: np.ndarray, counts: np.ndarray):
+def _along_and_across(resid: np.ndarray, units: np.ndarray, counts: list[int]):
     """The residuals' (M, 1, 3) float32 component along their part's colour direction
     (``units`` (P, 3), ``cv2.transform`` part by part) and squared length across it."""
     par = np.empty(len(resid), np.float32)
     s = 0
-    for i, n in enumerate(counts.tolist()):
+    for i, n in enumerate(counts):
         cv2.transform(resid[s : s + n], units[i : i + 1], dst=par[s : s + n].reshape(-1, 1))
         s += n
-    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).ravel()
+    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1)
     orth2 -= par * par
     return par, orth2
 
 
-def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: np.ndarray) -> list[tuple]:
+def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: list[int]) -> list[tuple]:
     """Per run of ``counts``: (1.4826 * the MAD of ``par``, the upper median of ``orth2``),
     as Python floats; medians are element ``n // 2`` in order (``ndarray.partition``)."""
-    meds = np.empty(len(counts), np.float32)
-    ks = (counts // 2).tolist()
-    s = 0
-    for i, (n, k) in enumerate(zip(counts.tolist(), ks, strict=True)):
-        a = par[s : s + n]
-        a.partition(k)  # in place: only the run's values count from here on
-        meds[i] = a[k]
-        s += n
-    dev = np.abs(par - np.repeat(meds, counts))
-    out = []
-    s = 0
-    for n, k in zip(counts.tolist(), ks, strict=True):
-        a, b = dev[s : s + n], orth2[s : s + n]
-        a.partition(k)
-        b.partition(k)
-        out.append((1.4826 * float(a[k]), float(b[k])))
-        s += n
-    return out
+    starts = list(accumulate(counts[:-1], initial=0))
+    meds = _upper_medians(par, starts, counts)  # in place: only each run's values count
+    dev = np.abs(par - np.repeat(np.array(meds, np.float32), counts))
+    mads = _upper_medians(dev, starts, counts)
+    return [(1.4826 * float(a), float(b))
+            for a, b in zip(mads, _upper_medians(orth2, starts, counts), strict=True)]
 
 
 _FINISH_ALBEDO = np.array([

@@ -157,8 +157,8 @@ def mosaic_features(
     resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
     kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
     norms = [math.sqrt(m @ m) for m in means]
-    units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
-                      for m, r in zip(means, norms, strict=True)])
+    units = means / np.array(norms)[:, None] if min(norms) > 1e-6 else np.array(
+        [m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3)) for m, r in zip(means, norms, strict=True)])
     par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
     stats = _robust_scales(par, orth2, kept_n)
     unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)
@@ -271,7 +271,7 @@ def classify_materials(
         return [("unknown", 0.0)] * len(features)
     albedo = np.array([f.albedo for f in features])
     prior = _albedo_metal_probability(albedo, albedo_sigma).tolist()
-    bright = (albedo.mean(axis=1) >= 0.25).tolist()
+    bright = (albedo.sum(axis=1) / 3 >= 0.25).tolist()  # the mean, as ndarray.mean divides
     out = []
     for f, p, lit in zip(features, prior, bright, strict=True):
         # Albedo alone is never sure: specular light makes metal as bright as white plastic.

@@ -102,7 +102,7 @@ def material_features(
         patch = np.clip(patch, 0, 255).astype(np.uint8)
     p = SUPPORT
     padded = cv2.copyMakeBorder(np.ascontiguousarray(patch), p, p, p, p, cv2.BORDER_REFLECT_101)
-    at = np.flatnonzero(cv2.copyMakeBorder(m8, p, p, p, p, cv2.BORDER_CONSTANT, value=0))
+    at = np.flatnonzero(np.pad(mask, p))
     return mosaic_features(padded, at, [n], np.asarray(belt_rgb_seen, dtype=np.float64)[None],
                            belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
 

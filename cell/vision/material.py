@@ -183,14 +183,14 @@ def mosaic_features(
     return out
 
 
-def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> list:
+def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> np.ndarray:
     """Element ``n // 2`` in order (``ndarray.partition``) of each run of ``values``; the
     runs are partitioned in place."""
-    out = []
-    for s, n in zip(starts, counts, strict=True):
+    out = np.empty(len(counts), values.dtype)
+    for i, (s, n) in enumerate(zip(starts, counts, strict=True)):
         run = values[s : s + n]
         run.partition(n // 2)
-        out.append(run[n // 2])
+        out[i] = run[n // 2]
     return out
 
 
@@ -212,10 +212,10 @@ def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: list[int]) -> lis
     as Python floats; medians are element ``n // 2`` in order (``ndarray.partition``)."""
     starts = list(accumulate(counts[:-1], initial=0))
     meds = _upper_medians(par, starts, counts)  # in place: only each run's values count
-    dev = np.abs(par - np.repeat(np.array(meds, np.float32), counts))
-    mads = _upper_medians(dev, starts, counts)
-    return [(1.4826 * float(a), float(b))
-            for a, b in zip(mads, _upper_medians(orth2, starts, counts), strict=True)]
+    dev = np.abs(par - np.repeat(meds, counts))
+    mads = _upper_medians(dev, starts, counts).tolist()
+    return [(1.4826 * a, b)
+            for a, b in zip(mads, _upper_medians(orth2, starts, counts).tolist(), strict=True)]
 
 
 _FINISH_ALBEDO = np.array([

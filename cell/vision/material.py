@@ -120,10 +120,10 @@ def mosaic_features(
 
     Parameters
     ----------
-    img : (H, W, 3) uint8 RGB, a mosaic of the parts' patches, each with ``SUPPORT`` px
-        around every pixel of its part that belong to that patch (its neighbours in the
-        frame, or the patch mirrored where it ends): the features' filters (3x3 mean, then
-        3x3 Sobel) read that far.
+    img : (H, W, 3) uint8 RGB, a mosaic of the parts' patches. The features' filters (3x3
+        mean, then 3x3 Sobel) read ``SUPPORT`` px around each part pixel, so what lies
+        there must be that part's patch: its pixels in the frame, or the patch mirrored
+        (``cv2.BORDER_REFLECT_101``) where it ends.
     at : (N,) int, the parts' pixels as flat indices into ``img``'s rows and columns,
         part after part, each part's in row-major order.
     counts : how many of ``at`` each part has (at least 8 each).
@@ -157,8 +157,11 @@ def mosaic_features(
     resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
     kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
     norms = [math.sqrt(m @ m) for m in means]
-    units = means / np.array(norms)[:, None] if min(norms) > 1e-6 else np.array(
-        [m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3)) for m, r in zip(means, norms, strict=True)])
+    if min(norms) > 1e-6:
+        units = means / np.array(norms)[:, None]
+    else:  # a black part: any direction will do
+        units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
+                          for m, r in zip(means, norms, strict=True)])
     par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
     stats = _robust_scales(par, orth2, kept_n)
     unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)

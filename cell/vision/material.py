@@ -142,14 +142,14 @@ def mosaic_features(
     # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
     # shows in the gradient of the smoothed image; the flatter half of the part is kept.
     grey = cv2.blur(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY), (3, 3))
-    gx, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
-    gx *= gx
+    slope, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
+    slope *= slope
     gy *= gy
-    gx += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
+    slope += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
     lit = grey.reshape(-1).take(at)
-    slope_q = _upper_medians(gx.copy(), starts, counts)
+    slope_q = _upper_medians(slope.copy(), starts, counts)
     lit_q = _upper_medians(lit.copy(), starts, counts)
-    flat = gx <= np.repeat(slope_q, counts)
+    flat = slope <= np.repeat(slope_q, counts)
     flat &= lit >= np.repeat(lit_q, counts)  # and the lit half: off the shadow terminator
     # the high-pass residual (pixel less its 3x3 mean) there only
     kept = np.flatnonzero(flat)

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-import cv2
 import numpy as np
 
 from cell.camera import CameraModel
@@ -43,17 +42,15 @@ from cell.vision._blob import Blob, px_centroid
 from cell.vision._checks import check_colour
 from cell.vision._footprint import _MID, Fit, Footprints, Geometry, bolt_origin, fit_kinds
 from cell.vision._footprint import warm_up as _warm_up
+from cell.vision._part_material import part_materials
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._split import split_blob
 from cell.vision.kind import footprint_yaw
-from cell.vision.material import classify_material, material_features
 from cell.vision.settings import VisionSettings
 
 __all__ = ["Detection", "PartDetector"]
 
 _LONGEST = max(k.length for k in KINDS.values())  # m: the longest part
-_K3 = np.ones((3, 3), np.uint8)
-_K5 = np.ones((5, 5), np.uint8)
 
 
 @dataclass(frozen=True)
@@ -130,9 +127,10 @@ class PartDetector:
             found.extend(self._interpret(blob, fitted, view))
         found.extend(self._partials([b for b in blobs if b.partial], geo))
         found.sort(key=lambda f: (f[3].centroid_px[0], f[3].centroid_px[1]))
+        materials = part_materials(view, [f[0] for f in found])
         out = []
         for i, (blob, kind, conf, res) in enumerate(found, start=1):
-            material, m_conf = _material(view, blob)
+            material, m_conf = materials[i - 1]
             out.append(_make_detection(i, blob, kind, conf, res, material, m_conf))
         return out
 
@@ -181,52 +179,6 @@ class PartDetector:
                 continue
             out.append((blob, "unknown", 0.0, Fit(fp, centroid_px=px_centroid(blob))))
         return out
-
-
-def _belt_near(view: FrameView, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-    """The belt's colour next to a part: the mean of the background pixels in a window
-    around it (the median-filtered estimate is biased near a part in a noisy frame)."""
-    h, w = view.fg.shape
-    xa, ya, xb, yb = max(x0 - 6, 0), max(y0 - 6, 0), min(x1 + 6, w), min(y1 + 6, h)
-    free = cv2.bitwise_not(view.fg[ya:yb, xa:xb])
-    if cv2.countNonZero(free) < 30:
-        u, v = min((x0 + x1) // 2, w - 1), min((y0 + y1) // 2, h - 1)
-        return view.background_at(u, v, u + 1, v + 1)[0, 0]
-    return np.array(cv2.mean(view.img[ya:yb, xa:xb], mask=free)[:3])
-
-
-def _material(view: FrameView, blob: Blob) -> tuple[str, float]:
-    """Material and confidence of one part from its own pixels (its ROI's interior)."""
-    st = view.settings
-    if view.backlit or blob.roi is None:
-        return "unknown", 0.0
-    x0, y0, roi = blob.roi
-    # The interior, away from the edge's blend with the belt: a 5x5 erosion, or 3x3
-    # where that leaves too little (a square nut's ring is 4 px wide).
-    sel = cv2.erode(roi, _K5)
-    if cv2.countNonZero(sel) < 150:
-        sel = cv2.erode(roi, _K3)
-        if cv2.countNonZero(sel) < 8:
-            return "unknown", 0.0
-    x1, y1 = x0 + roi.shape[1], y0 + roi.shape[0]
-    belt = _belt_near(view, x0, y0, x1, y1)
-    if min(belt.tolist()) >= st.backlight_level:
-        return "unknown", 0.0  # a glowing light table behind this part: a silhouette
-    # Only the interior's bounding box and 2 px around it (the support of the 3x3 mean and
-    # of the Sobel of the 3x3-smoothed grey): the same features, on fewer pixels.
-    bx, by, bw, bh = cv2.boundingRect(sel)
-    xa, ya = max(bx - 2, 0), max(by - 2, 0)
-    xb, yb = min(bx + bw + 2, sel.shape[1]), min(by + bh + 2, sel.shape[0])
-    feats = material_features(view.img[y0 + ya : y0 + yb, x0 + xa : x0 + xb],
-                              sel[ya:yb, xa:xb] > 0, belt, belt_rgb=st.belt_rgb,
-                              noise_sigma=view.noise_sigma())
-    return classify_material(
-        feats,
-        backlit=False,
-        grain_metal=st.grain_metal,
-        grain_z_min=st.grain_z_min,
-        albedo_sigma=st.albedo_sigma,
-    )
 
 
 def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:

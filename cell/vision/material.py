@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import cv2
 import numpy as np
@@ -30,10 +31,12 @@ import numpy as np
 from cell.catalogue import MATERIALS
 from cell.errors import VisionError
 
-__all__ = ["MaterialFeatures", "classify_material", "material_features"]
+__all__ = ["SUPPORT", "MaterialFeatures", "classify_material", "classify_materials",
+           "material_features", "mosaic_features"]
 
 _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
+SUPPORT = 2  # px: how far the features' filters (3x3 mean, then 3x3 Sobel) read around a pixel
 
 
 @dataclass(frozen=True)
@@ -81,7 +84,8 @@ def material_features(
 
     The grain is measured on the high-pass residual (pixel minus its 3x3 mean), so smooth
     shading across a face does not count, with robust (median-based) scales, so the few
-    pixels on a wall's edge do not count either.
+    pixels on a wall's edge do not count either. The filters see the patch mirrored at its
+    border (``cv2.BORDER_REFLECT_101``): :func:`mosaic_features` on the patch padded so.
     """
     if not isinstance(patch, np.ndarray) or patch.ndim != 3 or patch.shape[2] != 3:
         raise VisionError(f"material_features: argument 'patch' must be (H, W, 3), got "
@@ -94,51 +98,127 @@ def material_features(
     n = cv2.countNonZero(m8)
     if n < 8:
         raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
-    patch = np.ascontiguousarray(patch)
     if patch.dtype != np.uint8:
         patch = np.clip(patch, 0, 255).astype(np.uint8)
-    mean = np.array(cv2.mean(patch, mask=m8)[:3])
-    norm = float(np.sqrt(mean @ mean))
-    u = (mean / norm if norm > 1e-6 else np.full(3, 1 / math.sqrt(3))).astype(np.float32)
-    local = cv2.blur(patch, (3, 3))
+    p = SUPPORT
+    padded = cv2.copyMakeBorder(np.ascontiguousarray(patch), p, p, p, p, cv2.BORDER_REFLECT_101)
+    at = np.flatnonzero(np.pad(mask, p))
+    return mosaic_features(padded, at, [n], np.asarray(belt_rgb_seen, dtype=np.float64)[None],
+                           belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
+
+
+def mosaic_features(
+    img: np.ndarray,
+    at: np.ndarray,
+    counts: list[int],
+    belt_rgb_seen: np.ndarray,
+    *,
+    belt_rgb: tuple[float, ...],
+    noise_sigma: float = 0.0,
+) -> list[MaterialFeatures]:
+    """Grain and albedo features of several parts whose patches share one image.
+
+    Parameters
+    ----------
+    img : (H, W, 3) uint8 RGB, a mosaic of the parts' patches. The features' filters (3x3
+        mean, then 3x3 Sobel) read ``SUPPORT`` px around each part pixel, so what lies
+        there must be that part's patch: its pixels in the frame, or the patch mirrored
+        (``cv2.BORDER_REFLECT_101``) where it ends.
+    at : (N,) int, the parts' pixels as flat indices into ``img``'s rows and columns,
+        part after part, each part's in row-major order.
+    counts : how many of ``at`` each part has (at least 8 each).
+    belt_rgb_seen : (P, 3) the belt's colour next to each part (grey levels).
+    belt_rgb, noise_sigma : as for :func:`material_features`.
+
+    The filters run once over the whole mosaic, the robust statistics (``ndarray.partition``)
+    on each part's run of pixels.
+    """
+    img = np.ascontiguousarray(img)
+    starts = list(accumulate(counts[:-1], initial=0))
+    pix = img.reshape(-1, 3).take(at, axis=0)
+    means = np.add.reduceat(pix, starts, axis=0, dtype=np.float64)
+    means *= [[1.0 / n] for n in counts]  # the integer sums times 1/n, as cv2.mean scales
     # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
     # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
     # shows in the gradient of the smoothed image; the flatter half of the part is kept.
-    grey = cv2.blur(cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), (3, 3))
-    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3).ravel()
-    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3).ravel()
-    at = np.flatnonzero(mask)  # the part's pixels, row-major (as a boolean mask picks)
-    sx, sy = gx.take(at), gy.take(at)
-    slope = sx * sx + sy * sy
-    q = n // 2
-    flat = slope <= np.partition(slope, q)[q]
-    lit = grey.ravel().take(at)
-    flat &= lit >= np.partition(lit, q)[q]  # and the lit half: off the shadow terminator
-    at = at[flat]  # the high-pass residual (pixel less its 3x3 mean) there only
-    sel = cv2.subtract(patch.reshape(-1, 3).take(at, axis=0),
-                       local.reshape(-1, 3).take(at, axis=0), dtype=cv2.CV_32F).reshape(-1, 1, 3)
-    par = cv2.transform(sel, u.reshape(1, 3)).ravel()
-    orth2 = cv2.transform(sel * sel, np.ones((1, 3), np.float32)).ravel() - par * par
-    k = par.size // 2
-    med = np.partition(par, k)[k]
-    s_par = 1.4826 * float(np.partition(np.abs(par - med), k)[k])
-    s_noise = math.sqrt(max(float(np.partition(orth2, k)[k]), 0.0)) / 1.1774  # Rayleigh median
-    s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
-    grain_var = s_par**2 - s_noise**2
-    se = math.sqrt(2.0 / (0.37 * max(par.size, 1))) * (s_par**2 + s_noise**2) + 1e-9
-    unclipped = cv2.inRange(patch, (0, 0, 0), (253, 253, 253))
-    clipped = 1.0 - cv2.countNonZero(cv2.bitwise_and(unclipped, m8 * 255)) / n
-    belt_seen = np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
-    albedo = mean / belt_seen * np.asarray(belt_rgb, dtype=np.float64)
-    return MaterialFeatures(
-        mean_rgb=mean,
-        albedo=albedo,
-        grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
-        grain_z=grain_var / se,
-        clipped=float(clipped),
-        pixels=n,
-        grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
-    )
+    grey = cv2.blur(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY), (3, 3))
+    slope, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
+    slope *= slope
+    gy *= gy
+    slope += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
+    lit = grey.reshape(-1).take(at)
+    slope_q = _upper_medians(slope.copy(), starts, counts)
+    lit_q = _upper_medians(lit.copy(), starts, counts)
+    flat = slope <= np.repeat(slope_q, counts)
+    flat &= lit >= np.repeat(lit_q, counts)  # and the lit half: off the shadow terminator
+    # the high-pass residual (pixel less its 3x3 mean) there only
+    kept = np.flatnonzero(flat)
+    local = cv2.blur(img, (3, 3)).reshape(-1, 3).take(at.take(kept), axis=0)
+    resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
+    kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
+    norms = [math.sqrt(m @ m) for m in means]
+    if min(norms) > 1e-6:
+        units = means / np.array(norms)[:, None]
+    else:  # a black part: any direction will do
+        units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
+                          for m, r in zip(means, norms, strict=True)])
+    par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
+    stats = _robust_scales(par, orth2, kept_n)
+    unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)
+    unclipped = np.add.reduceat(unclipped, starts, dtype=np.intp).tolist()
+    albedo = means / np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
+    albedo *= belt_rgb
+    out = []
+    for i, (n, m, norm, (s_par, s_noise2)) in enumerate(zip(counts, kept_n, norms, stats, strict=True)):
+        s_noise = math.sqrt(max(s_noise2, 0.0)) / 1.1774  # Rayleigh median
+        s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
+        grain_var = s_par**2 - s_noise**2
+        se = math.sqrt(2.0 / (0.37 * max(m, 1))) * (s_par**2 + s_noise**2) + 1e-9
+        out.append(MaterialFeatures(
+            mean_rgb=means[i],
+            albedo=albedo[i],
+            grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
+            grain_z=grain_var / se,
+            clipped=1.0 - unclipped[i] / (255 * n),  # = count / n: the same quotient
+            pixels=n,
+            grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
+        ))
+    return out
+
+
+def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> np.ndarray:
+    """Element ``n // 2`` in order (``ndarray.partition``) of each run of ``values``; the
+    runs are partitioned in place."""
+    out = np.empty(len(counts), values.dtype)
+    for i, (s, n) in enumerate(zip(starts, counts, strict=True)):
+        run = values[s : s + n]
+        run.partition(n // 2)
+        out[i] = run[n // 2]
+    return out
+
+
+def _along_and_across(resid: np.ndarray, units: np.ndarray, counts: list[int]):
+    """The residuals' (M, 1, 3) float32 component along their part's colour direction
+    (``units`` (P, 3), ``cv2.transform`` part by part) and squared length across it."""
+    par = np.empty(len(resid), np.float32)
+    s = 0
+    for i, n in enumerate(counts):
+        cv2.transform(resid[s : s + n], units[i : i + 1], dst=par[s : s + n].reshape(-1, 1))
+        s += n
+    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1)
+    orth2 -= par * par
+    return par, orth2
+
+
+def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: list[int]) -> list[tuple]:
+    """Per run of ``counts``: (1.4826 * the MAD of ``par``, the upper median of ``orth2``),
+    as Python floats; medians are element ``n // 2`` in order (``ndarray.partition``)."""
+    starts = list(accumulate(counts[:-1], initial=0))
+    meds = _upper_medians(par, starts, counts)  # in place: only each run's values count
+    dev = np.abs(par - np.repeat(meds, counts))
+    mads = _upper_medians(dev, starts, counts).tolist()
+    return [(1.4826 * a, b)
+            for a, b in zip(mads, _upper_medians(orth2, starts, counts).tolist(), strict=True)]
 
 
 _FINISH_ALBEDO = np.array([
@@ -148,14 +228,15 @@ _FINISH_ALBEDO = np.array([
 _FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
 
 
-def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> float:
-    """P(metal) from the nearest catalogue finishes by white-balanced albedo (softmax).
+def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> np.ndarray:
+    """P(metal) of each of (P, 3) albedos from the nearest catalogue finishes by
+    white-balanced albedo (softmax).
 
     Metals' reference albedo is their colour times the grain's mean brightness.
     """
-    d2 = ((_FINISH_ALBEDO - albedo) ** 2).sum(axis=1) / sigma**2
-    w = np.exp(-(d2 - d2.min()) / 2)
-    return float(w[_FINISH_METAL].sum() / w.sum())
+    d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / sigma**2
+    w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
+    return w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1)
 
 
 def classify_material(
@@ -176,16 +257,33 @@ def classify_material(
     within 0.05..0.95, so clear grain always wins. A back-lit part is ``unknown``
     (confidence 0): a silhouette shows neither cue.
     """
-    if backlit:
-        return "unknown", 0.0
-    f = features
-    # Albedo alone is never sure: specular light makes metal as bright as white plastic.
-    p = min(max(_albedo_metal_probability(f.albedo, albedo_sigma), 0.05), 0.95)
-    odds = p / (1 - p)
-    bright = float(f.albedo.mean()) >= 0.25
-    if bright and f.grain >= grain_metal and f.grain_z >= grain_z_min:
-        odds *= 50.0
-    elif bright and f.grain < 0.45 * grain_metal and f.grain_visibility >= 6.0:
-        odds *= 0.02
-    p = odds / (1 + odds)
-    return ("metal", p) if p >= 0.5 else ("plastic", 1 - p)
+    return classify_materials([features], backlit=backlit, grain_metal=grain_metal,
+                              grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
+
+
+def classify_materials(
+    features: list[MaterialFeatures],
+    *,
+    backlit: bool,
+    grain_metal: float,
+    grain_z_min: float,
+    albedo_sigma: float,
+) -> list[tuple[str, float]]:
+    """:func:`classify_material` of several parts (their albedo priors computed at once)."""
+    if backlit or not features:
+        return [("unknown", 0.0)] * len(features)
+    albedo = np.array([f.albedo for f in features])
+    prior = _albedo_metal_probability(albedo, albedo_sigma).tolist()
+    bright = (albedo.sum(axis=1) / 3 >= 0.25).tolist()  # the mean, as ndarray.mean divides
+    out = []
+    for f, p, lit in zip(features, prior, bright, strict=True):
+        # Albedo alone is never sure: specular light makes metal as bright as white plastic.
+        p = min(max(p, 0.05), 0.95)
+        odds = p / (1 - p)
+        if lit and f.grain >= grain_metal and f.grain_z >= grain_z_min:
+            odds *= 50.0
+        elif lit and f.grain < 0.45 * grain_metal and f.grain_visibility >= 6.0:
+            odds *= 0.02
+        p = odds / (1 + odds)
+        out.append(("metal", p) if p >= 0.5 else ("plastic", 1 - p))
+    return out

@@ -175,31 +175,34 @@ def _polygon_cuts(blob: Blob, view: FrameView):
         d = (b - a) / max(math.hypot(*(b - a)), 1e-9)
         out = np.tile(side * np.array([-d[1], d[0]]), (len(cut), 1))
         rays, away = view.geo.plane_rays(cut, out)
-        pieces = [_sub_blob(blob, np.arange(fi, fj + 1), cut, out, rays, away),
-                  _sub_blob(blob, np.arange(fj, n + fi + 1) % n, cut[::-1], -out, rays[::-1],
+        pieces = [_sub_blob(blob, (slice(fi, fj + 1),), cut, out, rays, away),
+                  _sub_blob(blob, (slice(fj, n), slice(0, fi + 1)), cut[::-1], -out, rays[::-1],
                             ~away[::-1])]
-        if all(cv2.contourArea(p.contour.astype(np.float32)) >= 30 for p in pieces):
+        if all(p is not None for p in pieces):
             yield pieces
 
 
-def _sub_blob(blob: Blob, idx: np.ndarray, cut: np.ndarray, cut_normals: np.ndarray,
-              cut_rays: np.ndarray, cut_away: np.ndarray) -> Blob:
-    """The piece of a (prepared) blob made of its outline points ``idx`` closed by the
-    ``cut`` points (with their normals, rays and top-edge flags), and the holes whose
-    first point lies inside that outline."""
-    contour = np.concatenate((blob.contour[idx], cut))
-    normals = np.concatenate((blob.normals[idx], cut_normals))
-    rays = [blob.rays[idx], cut_rays]
-    away = [blob.away[idx], cut_away]
+def _sub_blob(blob: Blob, runs: tuple[slice, ...], cut: np.ndarray, cut_normals: np.ndarray,
+              cut_rays: np.ndarray, cut_away: np.ndarray) -> Blob | None:
+    """The piece of a (prepared) blob made of its outline's ``runs`` of points closed by
+    the ``cut`` points (with their normals, rays and top-edge flags), and the holes whose
+    first point lies inside that outline; None for a speck (under 30 px^2)."""
+    contour = np.concatenate([blob.contour[r] for r in runs] + [cut])
+    c32 = contour.astype(np.float32)
+    if cv2.contourArea(c32) < 30:
+        return None
+    normals = np.concatenate([blob.normals[r] for r in runs] + [cut_normals])
+    rays = [blob.rays[r] for r in runs] + [cut_rays]
+    away = [blob.away[r] for r in runs] + [cut_away]
     holes, sizes = [], [len(contour)]
     cuts = blob.splits
     for k, (h, hn) in enumerate(blob.holes):
-        if cv2.pointPolygonTest(contour.astype(np.float32), (float(h[0, 0]), float(h[0, 1])), False) > 0:
+        if cv2.pointPolygonTest(c32, (float(h[0, 0]), float(h[0, 1])), False) > 0:
             holes.append((h, hn))
             rays.append(blob.rays[cuts[k] : cuts[k + 1]])
             away.append(blob.away[cuts[k] : cuts[k + 1]])
             sizes.append(sizes[-1] + len(h))
-    piece = Blob(contour, normals, holes, cv2.boundingRect(contour.astype(np.float32)), False)
+    piece = Blob(contour, normals, holes, cv2.boundingRect(c32), False)
     piece.rays, piece.away = np.concatenate(rays), np.concatenate(away)
     piece.splits = np.array(sizes)
     return piece

@@ -35,48 +35,93 @@ def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool,
     its holes (children of at least 6 points); ``pts`` is that contour as (N, 2) int
     pixels of a crop at ``offset`` (x0, y0) in the frame; ``box`` its bounding box in the
     frame (x, y, w, h) if known."""
-    ox, oy = offset
-    pts = pts + (ox, oy) if (ox or oy) else pts
-    outline, normals = outline_normals(pts, hole=False)
-    holes = []
-    j = hier[i][2]
-    while j != -1:
-        hc = contours[j]
-        if len(hc) >= 6:
-            hc = hc.reshape(-1, 2)
-            holes.append(outline_normals(hc + (ox, oy) if (ox or oy) else hc, hole=True))
-        j = hier[j][0]
     if box is None:
-        bx, by, bw, bh = cv2.boundingRect(contours[i])
-        box = (bx + ox, by + oy, bw, bh)
-    return Blob(outline, normals, holes, box, partial)
+        bx, by, bw, bh = cv2.boundingRect(pts)
+        box = (bx + offset[0], by + offset[1], bw, bh)
+    return make_blobs(contours, hier, [i], [offset], [partial], [box])[0]
+
+
+def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
+               partial: list[bool], boxes: list[tuple[int, int, int, int]]) -> list[Blob]:
+    """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
+    (RETR_CCOMP), each with its holes (children of at least 6 points): contour
+    ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
+    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all of them are
+    computed at once (:func:`outline_normals_many`)."""
+    members, shifts, hole = [], [], []  # each blob's outline, then its holes
+    for i, off in zip(outer, offsets, strict=True):
+        members.append(contours[i])
+        shifts.append(off)
+        hole.append(False)
+        j = hier[i][2]
+        while j != -1:
+            if len(contours[j]) >= 6:
+                members.append(contours[j])
+                shifts.append(off)
+                hole.append(True)
+            j = hier[j][0]
+    lengths = np.array([len(m) for m in members])
+    pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
+    outline, normals = outline_normals_many(pts, lengths, np.array(hole))
+    ends = np.cumsum(lengths).tolist()
+    blobs: list[Blob] = []
+    start = 0
+    for is_hole, end in zip(hole, ends, strict=True):
+        piece = (outline[start:end], normals[start:end])
+        if is_hole:
+            blobs[-1].holes.append(piece)
+        else:
+            k = len(blobs)
+            blobs.append(Blob(piece[0], piece[1], [], boxes[k], partial[k]))
+        start = end
+    return blobs
 
 
 def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndarray]:
     """A pixel contour (N, 2) shifted half a pixel outward, with the region's outward
     unit normals (the tangent over five points turned by 90 degrees). For a hole contour
     "outward" points into the hole."""
-    p = pts.astype(np.float64)
-    k = len(p)
-    if k < 5:
-        t = np.concatenate((p[2:], p[:2])) - np.concatenate((p[-2:], p[:-2]))
-    else:  # the same differences p[i + 2] - p[i - 2] (wrapped), without the copies
-        t = np.empty_like(p)
-        np.subtract(p[4:], p[:-4], out=t[2:-2])
-        np.subtract(p[2:4], p[-2:], out=t[:2])
-        np.subtract(p[:2], p[-4:-2], out=t[-2:])
-    # findContours traces outer boundaries one way and holes the other; the sign of the
-    # area says which way this one runs
-    flip = cv2.contourArea(pts.astype(np.int32), oriented=True) < 0
-    n = np.empty_like(t)  # t turned by -90 degrees (+90 when flipped)
-    if flip != hole:
-        np.negative(t[:, 1], out=n[:, 0])
-        n[:, 1] = t[:, 0]
-    else:
-        n[:, 0] = t[:, 1]
-        np.negative(t[:, 0], out=n[:, 1])
-    n /= np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)[:, None]
-    return p + 0.5 * n, n
+    return outline_normals_many(pts, np.array([len(pts)]), np.array([hole]))
+
+
+def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,
+                         hole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`outline_normals` of many contours at once: ``pts`` (M, 2) int pixels, the
+    contours one after another, ``lengths`` (n,) their point counts (at least 1), ``hole``
+    (n,) bool which of them are holes. The tangent at point i of a contour of k points is
+    p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs (findContours traces
+    outer boundaries one way and holes the other) is the sign of its area (shoelace, as
+    ``cv2.contourArea(oriented=True)``)."""
+    x, y = pts.astype(np.float64).T
+    m = len(x)
+    ends = np.cumsum(lengths)
+    starts = ends - lengths
+    tx, ty = np.empty(m), np.empty(m)
+    np.subtract(x[4:], x[:-4], out=tx[2:-2])  # within a contour; its ends are redone below
+    np.subtract(y[4:], y[:-4], out=ty[2:-2])
+    local = np.array([0, 1, -2, -1]) + np.zeros((len(lengths), 1), np.int64)  # each end
+    local = np.where(local < 0, local + lengths[:, None], local)
+    ok = (local >= 0) & (local < lengths[:, None])
+    k = np.broadcast_to(lengths[:, None], local.shape)[ok]
+    base = np.broadcast_to(starts[:, None], local.shape)[ok]
+    at = base + local[ok]
+    ahead, back = base + (local[ok] + 2) % k, base + (local[ok] - 2) % k
+    tx[at] = x[ahead] - x[back]
+    ty[at] = y[ahead] - y[back]
+    # twice the signed area, from the cross products of consecutive points (wrapped)
+    x1, y1 = np.empty(m), np.empty(m)
+    x1[:-1], y1[:-1] = x[1:], y[1:]
+    x1[ends - 1], y1[ends - 1] = x[starts], y[starts]
+    flip = (np.add.reduceat(x * y1 - x1 * y, starts) < 0) != hole
+    sign = np.repeat(np.where(flip, -1.0, 1.0), lengths)  # t turned by +90 deg where -1
+    norm = np.maximum(np.sqrt(tx * tx + ty * ty), 1e-9)
+    nrm = np.empty((m, 2))
+    nrm[:, 0] = sign * ty / norm
+    nrm[:, 1] = -sign * tx / norm
+    out = np.empty((m, 2))
+    out[:, 0] = x + 0.5 * nrm[:, 0]
+    out[:, 1] = y + 0.5 * nrm[:, 1]
+    return out, nrm
 
 
 def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
@@ -86,11 +131,15 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
     if hier is None:
         return []
     hier = hier[0]
-    return [
-        make_blob(c.reshape(-1, 2), contours, hier, i, offset, False)
-        for i, c in enumerate(contours)
-        if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30
-    ]
+    outer = [i for i, c in enumerate(contours)
+             if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30]
+    if not outer:
+        return []
+    boxes = []
+    for i in outer:
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        boxes.append((bx + offset[0], by + offset[1], bw, bh))
+    return make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

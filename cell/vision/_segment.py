@@ -19,8 +19,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, make_blob
+from cell.vision._blob import Blob, make_blobs
 from cell.vision._footprint import Geometry
+from cell.vision._mosaic import Mosaic
 from cell.vision.settings import VisionSettings
 
 __all__: list[str] = []  # private to cell.vision
@@ -32,6 +33,7 @@ _K3 = np.ones((3, 3), np.uint8)
 _K5 = np.ones((5, 5), np.uint8)
 _LEVELS = np.arange(256)
 _DIFFS = np.arange(511)
+_CEIL_3_4 = np.ceil(0.75 * np.minimum(np.arange(1, 257), 255)).astype(np.uint8)  # see _dark
 
 
 @dataclass
@@ -186,41 +188,67 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     same factor; a part changes the ratios (Cucchiara et al., *Detecting moving objects,
     ghosts and shadows in video streams*, IEEE PAMI 2003: shadows keep chromaticity).
     A shadow pixel is below 0.75 of the background in every channel and ``chroma`` bounds
-    the spread of the three ratios, relative to their largest; 0 = off.
+    the spread of the three ratios, relative to their largest; 0 = off. ``img`` and ``bg``
+    uint8 RGB (H, W, 3); the image is 3x3-averaged first; bool (H, W) out.
     """
     if chroma <= 0:
         return np.zeros(img.shape[:2], bool)
-    ratio = cv2.divide(cv2.blur(img, (3, 3)), cv2.add(bg, 1), dtype=cv2.CV_32F)
-    red, green, blue = cv2.split(ratio)  # max / min over each pixel's three channels
-    rmax = cv2.max(cv2.max(red, green), blue)
-    rmin = cv2.min(cv2.min(red, green), blue)
-    return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
+    mean = cv2.blur(img, (3, 3))
+    out = _dark(mean, bg).view(bool)
+    idx = np.flatnonzero(out)
+    out.ravel()[idx] = _same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma)
+    return out
+
+
+def _dark(mean: np.ndarray, bg: np.ndarray) -> np.ndarray:
+    """uint8 (H, W) 0/1: where each channel of ``mean`` (uint8 RGB (H, W, 3)) is below 0.75
+    of ``bg`` + 1 (uint8 RGB), i.e. 4 mean < 3 (bg + 1) (saturated at 255): the ratio
+    test of :func:`shadow` in integers (a quotient of integers up to 255 is never within
+    a float's rounding of 3/4 unless equal to it)."""
+    below = cv2.split(cv2.compare(mean, cv2.LUT(bg, _CEIL_3_4), cv2.CMP_LT))
+    return cv2.min(cv2.min(below[0], below[1]), below[2]) & 1
+
+
+def _same_colour(mean: np.ndarray, bg: np.ndarray, idx: np.ndarray, chroma: float) -> np.ndarray:
+    """At the pixels ``idx`` of ``mean`` and ``bg`` ((N, 3) uint8), whether the three ratios
+    mean / (bg + 1) (float32, ``cv2.divide``) spread by less than ``chroma`` of their
+    largest: bool (len(idx),)."""
+    red, green, blue = cv2.divide(np.take(mean, idx, axis=0),
+                                  cv2.add(np.take(bg, idx, axis=0), 1), dtype=cv2.CV_32F).T
+    rmax = np.maximum(np.maximum(red, green), blue)
+    rmin = np.minimum(np.minimum(red, green), blue)
+    return rmin > (1.0 - chroma) * rmax
 
 
 def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: float) -> None:
     """Clear the :func:`shadow` pixels of mask ``keep`` (uint8, img's shape), testing only
-    its nonzero pixels' bounding box: that box and one pixel around it (the 3x3 mean's
-    support) give the same shadow there as the whole image does."""
+    its nonzero pixels, with the 3x3 mean over their bounding box and one pixel around
+    it (the mean's support): the same shadow there as the whole image gives."""
     rx, ry, rw, rh = cv2.boundingRect(keep)
     if rw == 0 or rh == 0:
         return
     h, w = keep.shape
     xa, ya, xb, yb = max(rx - 1, 0), max(ry - 1, 0), min(rx + rw + 1, w), min(ry + rh + 1, h)
-    sh = shadow(img[ya:yb, xa:xb], bg[ya:yb, xa:xb], chroma)
-    keep[ry : ry + rh, rx : rx + rw][sh[ry - ya : ry - ya + rh, rx - xa : rx - xa + rw]] = 0
+    mean = cv2.blur(img[ya:yb, xa:xb], (3, 3))
+    bg = np.ascontiguousarray(bg[ya:yb, xa:xb])
+    box = keep[ya:yb, xa:xb]
+    cand = cv2.bitwise_and(_dark(mean, bg), box)
+    idx = np.flatnonzero(cv2.threshold(cand, 0, 1, cv2.THRESH_BINARY)[1].view(bool))
+    if idx.size:
+        ys, xs = np.divmod(idx[_same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma)],
+                           xb - xa)
+        box[ys, xs] = 0
 
 
 def find_blobs(view: FrameView) -> list[Blob]:
-    """Outer contours of the half-scale foreground, each refined at full scale in its own
+    """Outer contours of the half-scale foreground, refined at full scale each in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
     edge), are left out. A part touching such a long blob is cut off it by an opening."""
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    blobs = []
-    for c in _part_contours(view, contours, hier[0], (0, 0), cut=True):
-        blobs.extend(_refine(view, c, cv2.boundingRect(c)))
-    return blobs
+    parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
+    return _refine(view, parts) if parts else []
 
 
 def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):
@@ -245,69 +273,96 @@ def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, 
                 yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False)
 
 
-def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> list[Blob]:
-    """The blob(s) of half-scale contour ``c`` at full scale: the difference in its box
-    (and 8 px around it), thresholded at ``edge_level`` times its median contrast (at
-    least the frame's threshold), less shadow, near the contour's region."""
+def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
+    """The blobs of half-scale contours ``parts`` at full scale, each from its own box
+    (and 8 px around it) as if alone: the difference there thresholded at ``edge_level``
+    times the blob's median contrast (at least the frame's threshold), less shadow, near
+    the contour's region. All boxes are processed at once, side by side in a
+    :class:`~cell.vision._mosaic.Mosaic`."""
     st = view.settings
     h, w = view.fg.shape
-    mgn = st.border_margin
-    x, y, bw, bh = box
-    hx0, hy0 = max(x - 4, 0), max(y - 4, 0)  # the box and 4 px around it, at half scale
-    hx1, hy1 = min(x + bw + 4, view.mask.shape[1]), min(y + bh + 4, view.mask.shape[0])
-    x0, y0, x1, y1 = 2 * hx0, 2 * hy0, min(2 * hx1, w), min(2 * hy1, h)
-    img = view.img[y0:y1, x0:x1]
-    bg = view.background_at(x0, y0, x1, y1)
-    if view.smooth:
-        k = view.smooth
-        r = k // 2
-        xa, ya, xb, yb = max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, w), min(y1 + r, h)
-        blurred = cv2.blur(view.img[ya:yb, xa:xb], (k, k))
-        d = _max_channel_diff(np.ascontiguousarray(blurred[y0 - ya : y1 - ya, x0 - xa : x1 - xa]), bg)
-    else:
-        d = _max_channel_diff(img, bg)
-    fg = cv2.morphologyEx(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1],
-                          cv2.MORPH_OPEN, _K3)
-    view.fg[y0:y1, x0:x1] |= fg
-    # this blob's foreground at full scale: near its half-scale region, not a neighbour's
-    near = np.zeros((hy1 - hy0, hx1 - hx0), np.uint8)
-    cv2.drawContours(near, [c], -1, 255, -1, offset=(-hx0, -hy0))
-    near = cv2.resize(cv2.dilate(near, _K3), ((hx1 - hx0) * 2, (hy1 - hy0) * 2),
-                      interpolation=cv2.INTER_NEAREST)[: y1 - y0, : x1 - x0]
-    own = cv2.bitwise_and(fg, near)
-    inside = d[own > 0]
-    level = view.threshold
-    if inside.size:
-        half = inside.size // 2
-        level = max(level, st.edge_level * float(np.partition(inside, half)[half]))
-    keep = cv2.bitwise_and(cv2.dilate(own, _K3), cv2.threshold(d, level, 255, cv2.THRESH_BINARY)[1])
+    hh, hw = view.mask.shape
+    x, y, bw, bh = np.array([cv2.boundingRect(c) for c in parts]).T
+    hx0, hy0 = np.maximum(x - 4, 0), np.maximum(y - 4, 0)  # the box and 4 px, half scale
+    hx1, hy1 = np.minimum(x + bw + 4, hw), np.minimum(y + bh + 4, hh)
+    mos = Mosaic(np.stack((2 * hx0, 2 * hy0, np.minimum(2 * hx1, w), np.minimum(2 * hy1, h)), 1),
+                 view.bg_small)
+    img = mos.paste(view.img, max(view.smooth // 2, 1))  # the 3x3 mean's or the box filter's
+    src = cv2.blur(img, (view.smooth, view.smooth)) if view.smooth else img
+    d = cv2.bitwise_and(_max_channel_diff(src, mos.bg), mos.inside)
+    fg = mos.open3(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1])
+    for k, (x0, y0, x1, y1) in enumerate(mos.boxes.tolist()):
+        view.fg[y0:y1, x0:x1] |= mos.window(fg, k)
+    # each blob's foreground: near its half-scale region (dilated), not a neighbour's
+    near = np.zeros((fg.shape[0] // 2, fg.shape[1] // 2), np.uint8)
+    shift = (mos.at // 2 - np.stack((hx0, hy0), 1)).tolist()
+    cv2.drawContours(near, [c + s for c, s in zip(parts, shift, strict=True)], -1, 1, -1)
+    near = cv2.resize(cv2.dilate(near, _K3), fg.shape[::-1], interpolation=cv2.INTER_NEAREST)
+    own = cv2.bitwise_and(fg, near)  # 0/1
+    level = _levels(view, d, own, mos.col, len(parts))
+    above = np.greater(d, level[mos.col]).view(np.uint8)  # (255 between the boxes)
+    keep = cv2.bitwise_and(cv2.dilate(own, _K3), above)
     if not view.backlit and st.shadow_chroma > 0:  # a light table casts no shadows
-        _drop_shadow(keep, img, bg, st.shadow_chroma)
-    sub = cv2.morphologyEx(keep, cv2.MORPH_OPEN, _K3)
+        _drop_shadow(keep, img, mos.bg, st.shadow_chroma)
+    sub = mos.open3(keep)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return []
-    hr = hr[0]
-    out = []
-    labels = None
-    n_outer = int(np.count_nonzero(hr[:, 3] == -1))
-    for j, cj in enumerate(cs):
-        if hr[j][3] != -1 or len(cj) < 8:
-            continue
-        if cv2.contourArea(cj) < view.min_px / 3:
+    return _blobs(view, mos, sub, cs, hr[0])
+
+
+def _levels(view: FrameView, d: np.ndarray, own: np.ndarray, col: np.ndarray,
+            n: int) -> np.ndarray:
+    """Each box's re-threshold, as uint8 (n + 1,) (the last, 255, for no box): the
+    frame's threshold or ``edge_level`` times the upper median of ``d`` (uint8 mosaic)
+    over the box's ``own`` pixels (uint8 0/1), whichever is higher, floored (``cv2.threshold``
+    compares uint8 pixels with the floor of its threshold). ``col`` is the box of each
+    mosaic column (-1: none)."""
+    idx = np.flatnonzero(own.view(bool))
+    hist = np.bincount(col[idx % own.shape[1]] * 256 + d.ravel()[idx], minlength=256 * n)
+    cum = np.cumsum(hist.reshape(n, 256), axis=1)
+    count = cum[:, -1]
+    med = np.count_nonzero(cum <= (count // 2)[:, None], axis=1)  # as np.partition's
+    level = np.where(count > 0, np.maximum(view.threshold, view.settings.edge_level * med),
+                     view.threshold)
+    return np.append(np.minimum(np.floor(level), 255), 255).astype(np.uint8)
+
+
+def _blobs(view: FrameView, mos: Mosaic, sub: np.ndarray, cs, hr) -> list[Blob]:
+    """Blobs of the outer contours ``cs`` (hierarchy ``hr``, ``cv2.RETR_CCOMP``) of the
+    refined foreground mosaic ``sub`` (uint8, 0/1), box by box: those of at least 8 points
+    and a third of the smallest part's area, each with its own pixels as ``roi``."""
+    h, w = view.fg.shape
+    mgn = view.settings.border_margin
+    outer = [j for j in range(len(cs)) if hr[j][3] == -1]
+    box_of = mos.col[[int(cs[j][0, 0, 0]) for j in outer]].tolist()
+    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
+    picks, offsets, partial, boxes, rois = [], [], [], [], []
+    labels: dict[int, np.ndarray] = {}
+    for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
+        cj = cs[j]
+        if len(cj) < 8 or cv2.contourArea(cj) < view.min_px / 3:
             continue  # a fragment (at least 3 px wide after the opening) far below a part
-        pj = cj.reshape(-1, 2)
+        x0, y0 = mos.boxes[k, :2].tolist()
+        mx, my = mos.at[k].tolist()
         bx, by, bbw, bbh = cv2.boundingRect(cj)
-        bx, by = bx + x0, by + y0
-        partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
-        blob = make_blob(pj, cs, hr, j, (x0, y0), partial, box=(bx, by, bbw, bbh))
-        if n_outer == 1:
-            own_mask = sub
-        else:
-            if labels is None:
-                _, labels = cv2.connectedComponents(sub, connectivity=8)
-            px, py = pj[0]
-            own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
-        blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
-        out.append(blob)
-    return out
+        bx, by = bx - mx + x0, by - my + y0
+        picks.append(j)
+        offsets.append((x0 - mx, y0 - my))
+        partial.append(bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn)
+        boxes.append((bx, by, bbw, bbh))
+        win = mos.window(sub, k)
+        if n_outer[k] == 1:
+            own = cv2.compare(win, 0, cv2.CMP_GT)
+        else:  # this part's pixels only, not a neighbour's
+            if k not in labels:
+                labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
+            px, py = int(cj[0, 0, 0]) - mx, int(cj[0, 0, 1]) - my
+            own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
+        rois.append((x0, y0, own))
+    if not picks:
+        return []
+    blobs = make_blobs(cs, hr, picks, offsets, partial, boxes)
+    for blob, roi in zip(blobs, rois, strict=True):
+        blob.roi = roi
+    return blobs

@@ -1,0 +1,84 @@
+"""Many windows of one frame side by side in one image, a mosaic, so that an operation
+meant for each window alone runs as one OpenCV call on all of them.
+
+Window ``k`` of the frame (full scale, ``[y0:y1, x0:x1]``, even corners) sits in the
+mosaic at ``at[k]`` = (x, y), at least 8 px from every other window and from the mosaic's
+edge. The windows are placed so that one 8x bilinear upscaling (``cv2.resize``) of the
+frame's 1/8-scale background blocks around them, laid side by side, gives each window's
+background exactly as upscaling the whole 1/8-scale image would (the blocks keep one
+small pixel around what the window needs; beyond the image, the edge pixel repeated:
+what ``cv2.resize`` does there).
+
+A 3x3 opening in the mosaic equals that opening in each window alone (whose borders do
+not count for erosion nor dilation, OpenCV's default), as long as the gaps stay neutral:
+full (255) while eroding, empty while dilating.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__: list[str] = []  # private to cell.vision
+
+_S = 8  # the background's downscale factor
+_K3 = np.ones((3, 3), np.uint8)
+
+
+class Mosaic:
+    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners) and
+    the background there: ``bg`` uint8 RGB (H, W, 3) upscaled from ``bg_small`` (uint8
+    RGB, the frame's background at 1/8 scale); ``inside`` uint8 (H, W), 255 on the windows
+    and 0 between them; ``col`` (W,) the window of each mosaic column (-1 between)."""
+
+    def __init__(self, boxes: np.ndarray, bg_small: np.ndarray) -> None:
+        hs, ws = bg_small.shape[:2]
+        padded = cv2.copyMakeBorder(bg_small, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
+        x0, y0, x1, y1 = boxes.T
+        # padded-block rows and columns: one small pixel beyond those the window samples
+        i0, j0 = y0 // _S, x0 // _S
+        i1 = np.minimum(-(-y1 // _S) + 2, hs + 2)
+        j1 = np.minimum(-(-x1 // _S) + 2, ws + 2)
+        cols = np.concatenate(([0], np.cumsum(j1 - j0)))
+        small = np.zeros((int((i1 - i0).max()), int(cols[-1]), 3), np.uint8)
+        for k in range(len(boxes)):
+            small[: i1[k] - i0[k], cols[k] : cols[k + 1]] = padded[i0[k] : i1[k], j0[k] : j1[k]]
+        h, w = small.shape[0] * _S, small.shape[1] * _S
+        self.bg = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+        # the small column j0 - 1 (padded j0) centres at 8 (j0 - 1) + 3.5 in the frame
+        self.at = np.stack((_S * cols[:-1] + x0 - _S * (j0 - 1), y0 - _S * (i0 - 1)), 1)
+        self.boxes = boxes
+        self.inside = np.zeros((h, w), np.uint8)
+        self.col = np.full(w, -1, np.int64)
+        for k, (mx, my) in enumerate(self.at.tolist()):
+            bw, bh = int(x1[k] - x0[k]), int(y1[k] - y0[k])
+            self.inside[my : my + bh, mx : mx + bw] = 255
+            self.col[mx : mx + bw] = k
+        self.outside = cv2.bitwise_not(self.inside)
+
+    def window(self, a: np.ndarray, k: int, ring: int = 0) -> np.ndarray:
+        """The view of mosaic-shaped array ``a`` on window ``k`` (and ``ring`` px around)."""
+        mx, my = self.at[k].tolist()
+        x0, y0, x1, y1 = self.boxes[k].tolist()
+        return a[my - ring : my + y1 - y0 + ring, mx - ring : mx + x1 - x0 + ring]
+
+    def paste(self, img: np.ndarray, ring: int) -> np.ndarray:
+        """The windows of uint8 RGB frame ``img`` (H, W, 3) in a mosaic (zero between them),
+        each with ``ring`` px (at most 8) of the frame around it, mirrored beyond the frame's
+        edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
+        out = np.zeros(self.bg.shape, np.uint8)
+        h, w = img.shape[:2]
+        for k, (x0, y0, x1, y1) in enumerate(self.boxes.tolist()):
+            xa, ya, xb, yb = max(x0 - ring, 0), max(y0 - ring, 0), min(x1 + ring, w), min(y1 + ring, h)
+            piece = img[ya:yb, xa:xb]
+            if (xa, ya, xb, yb) != (x0 - ring, y0 - ring, x1 + ring, y1 + ring):
+                piece = cv2.copyMakeBorder(piece, ya - y0 + ring, y1 + ring - yb,
+                                           xa - x0 + ring, x1 + ring - xb, cv2.BORDER_REFLECT_101)
+            self.window(out, k, ring)[...] = piece
+        return out
+
+    def open3(self, mask: np.ndarray) -> np.ndarray:
+        """A 3x3 opening (``cv2.MORPH_OPEN``) of each window of uint8 ``mask`` (zero
+        between windows) on its own; zero between windows."""
+        eroded = cv2.bitwise_and(cv2.erode(cv2.bitwise_or(mask, self.outside), _K3), self.inside)
+        return cv2.bitwise_and(cv2.dilate(eroded, _K3), self.inside)

@@ -29,37 +29,41 @@ class Mosaic:
     """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners) and
     the background there: ``bg`` uint8 RGB (H, W, 3) upscaled from ``bg_small`` (uint8
     RGB, the frame's background at 1/8 scale); ``inside`` uint8 (H, W), 255 on the windows
-    and 0 between them; ``col`` (W,) the window of each mosaic column (-1 between)."""
+    and 0 between them (``outside`` the reverse); ``col`` (W,) the window of each mosaic
+    column (-1 between)."""
 
     def __init__(self, boxes: np.ndarray, bg_small: np.ndarray) -> None:
         hs, ws = bg_small.shape[:2]
         padded = cv2.copyMakeBorder(bg_small, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-        x0, y0, x1, y1 = boxes.T
-        # padded-block rows and columns: one small pixel beyond those the window samples
-        i0, j0 = y0 // _S, x0 // _S
-        i1 = np.minimum(-(-y1 // _S) + 2, hs + 2)
-        j1 = np.minimum(-(-x1 // _S) + 2, ws + 2)
-        cols = np.concatenate(([0], np.cumsum(j1 - j0)))
-        small = np.zeros((int((i1 - i0).max()), int(cols[-1]), 3), np.uint8)
-        for k in range(len(boxes)):
-            small[: i1[k] - i0[k], cols[k] : cols[k + 1]] = padded[i0[k] : i1[k], j0[k] : j1[k]]
+        blocks, at = [], []
+        width = 0
+        for x0, y0, x1, y1 in boxes.tolist():
+            # padded-block rows and columns: one small pixel beyond those the window samples
+            i0, j0 = y0 // _S, x0 // _S
+            i1, j1 = min(-(-y1 // _S) + 2, hs + 2), min(-(-x1 // _S) + 2, ws + 2)
+            blocks.append(padded[i0:i1, j0:j1])
+            # the small column j0 - 1 (padded j0) centres at 8 (j0 - 1) + 3.5 in the frame
+            at.append((_S * (width - j0 + 1) + x0, _S * (1 - i0) + y0))
+            width += j1 - j0
+        small = np.zeros((max(b.shape[0] for b in blocks), width, 3), np.uint8)
+        j = 0
+        for b in blocks:
+            small[: b.shape[0], j : j + b.shape[1]] = b
+            j += b.shape[1]
         h, w = small.shape[0] * _S, small.shape[1] * _S
         self.bg = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
-        # the small column j0 - 1 (padded j0) centres at 8 (j0 - 1) + 3.5 in the frame
-        self.at = np.stack((_S * cols[:-1] + x0 - _S * (j0 - 1), y0 - _S * (i0 - 1)), 1)
-        self.boxes = boxes
+        self.boxes, self.at_list, self.at = boxes, at, np.array(at)
         self.inside = np.zeros((h, w), np.uint8)
         self.col = np.full(w, -1, np.int64)
-        for k, (mx, my) in enumerate(self.at.tolist()):
-            bw, bh = int(x1[k] - x0[k]), int(y1[k] - y0[k])
-            self.inside[my : my + bh, mx : mx + bw] = 255
-            self.col[mx : mx + bw] = k
+        for k, ((mx, my), (x0, y0, x1, y1)) in enumerate(zip(at, boxes.tolist(), strict=True)):
+            self.inside[my : my + y1 - y0, mx : mx + x1 - x0] = 255
+            self.col[mx : mx + x1 - x0] = k
         self.outside = cv2.bitwise_not(self.inside)
 
     def window(self, a: np.ndarray, k: int, ring: int = 0) -> np.ndarray:
         """The view of mosaic-shaped array ``a`` on window ``k`` (and ``ring`` px around)."""
-        mx, my = self.at[k].tolist()
-        x0, y0, x1, y1 = self.boxes[k].tolist()
+        mx, my = self.at_list[k]
+        x0, y0, x1, y1 = self.boxes[k]
         return a[my - ring : my + y1 - y0 + ring, mx - ring : mx + x1 - x0 + ring]
 
     def paste(self, img: np.ndarray, ring: int) -> np.ndarray:

@@ -33,7 +33,6 @@ _K3 = np.ones((3, 3), np.uint8)
 _K5 = np.ones((5, 5), np.uint8)
 _LEVELS = np.arange(256)
 _DIFFS = np.arange(511)
-_CEIL_3_4 = np.ceil(0.75 * np.minimum(np.arange(1, 257), 255)).astype(np.uint8)  # see _dark
 
 
 @dataclass
@@ -205,8 +204,11 @@ def _dark(mean: np.ndarray, bg: np.ndarray) -> np.ndarray:
     of ``bg`` + 1 (uint8 RGB), i.e. 4 mean < 3 (bg + 1) (saturated at 255): the ratio
     test of :func:`shadow` in integers (a quotient of integers up to 255 is never within
     a float's rounding of 3/4 unless equal to it)."""
-    below = cv2.split(cv2.compare(mean, cv2.LUT(bg, _CEIL_3_4), cv2.CMP_LT))
-    return cv2.min(cv2.min(below[0], below[1]), below[2]) & 1
+    # ceil(3 (bg + 1) / 4) = round(0.75 bg + 1.125), exactly (multiples of 1/8)
+    below = cv2.compare(mean, cv2.convertScaleAbs(bg, alpha=0.75, beta=1.125), cv2.CMP_LT)
+    # all three 255: grey 255 (OpenCV's weights sum to one in fixed point; a zero
+    # channel leaves at most 226)
+    return cv2.threshold(cv2.cvtColor(below, cv2.COLOR_RGB2GRAY), 254, 1, cv2.THRESH_BINARY)[1]
 
 
 def _same_colour(mean: np.ndarray, bg: np.ndarray, idx: np.ndarray, chroma: float) -> np.ndarray:
@@ -232,8 +234,8 @@ def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: floa
     mean = cv2.blur(img[ya:yb, xa:xb], (3, 3))
     bg = np.ascontiguousarray(bg[ya:yb, xa:xb])
     box = keep[ya:yb, xa:xb]
-    cand = cv2.bitwise_and(_dark(mean, bg), box)
-    idx = np.flatnonzero(cv2.threshold(cand, 0, 1, cv2.THRESH_BINARY)[1].view(bool))
+    cand = cv2.bitwise_and(_dark(mean, bg), box)  # 0/1 where box is 0/1 or 0/255
+    idx = np.flatnonzero(cand.view(bool))
     if idx.size:
         ys, xs = np.divmod(idx[_same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma)],
                            xb - xa)
@@ -299,7 +301,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     cv2.drawContours(near, [c + s for c, s in zip(parts, shift, strict=True)], -1, 1, -1)
     near = cv2.resize(cv2.dilate(near, _K3), fg.shape[::-1], interpolation=cv2.INTER_NEAREST)
     own = cv2.bitwise_and(fg, near)  # 0/1
-    level = _levels(view, d, own, mos.col, len(parts))
+    level = _levels(view, mos, d, own)
     above = np.greater(d, level[mos.col]).view(np.uint8)  # (255 between the boxes)
     keep = cv2.bitwise_and(cv2.dilate(own, _K3), above)
     if not view.backlit and st.shadow_chroma > 0:  # a light table casts no shadows
@@ -311,16 +313,15 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     return _blobs(view, mos, sub, cs, hr[0])
 
 
-def _levels(view: FrameView, d: np.ndarray, own: np.ndarray, col: np.ndarray,
-            n: int) -> np.ndarray:
+def _levels(view: FrameView, mos: Mosaic, d: np.ndarray, own: np.ndarray) -> np.ndarray:
     """Each box's re-threshold, as uint8 (n + 1,) (the last, 255, for no box): the
     frame's threshold or ``edge_level`` times the upper median of ``d`` (uint8 mosaic)
-    over the box's ``own`` pixels (uint8 0/1), whichever is higher, floored (``cv2.threshold``
-    compares uint8 pixels with the floor of its threshold). ``col`` is the box of each
-    mosaic column (-1: none)."""
-    idx = np.flatnonzero(own.view(bool))
-    hist = np.bincount(col[idx % own.shape[1]] * 256 + d.ravel()[idx], minlength=256 * n)
-    cum = np.cumsum(hist.reshape(n, 256), axis=1)
+    over the box's ``own`` pixels (uint8 0/1), whichever is higher, floored
+    (``cv2.threshold`` compares uint8 pixels with the floor of its threshold). The
+    medians come from each box's histogram (``cv2.calcHist``)."""
+    hist = np.hstack([cv2.calcHist([mos.window(d, k)], [0], mos.window(own, k), [256], [0, 256])
+                      for k in range(len(mos.boxes))]).T
+    cum = np.cumsum(hist.astype(np.int64), axis=1)
     count = cum[:, -1]
     med = np.count_nonzero(cum <= (count // 2)[:, None], axis=1)  # as np.partition's
     level = np.where(count > 0, np.maximum(view.threshold, view.settings.edge_level * med),
@@ -344,7 +345,7 @@ def _blobs(view: FrameView, mos: Mosaic, sub: np.ndarray, cs, hr) -> list[Blob]:
         if len(cj) < 8 or cv2.contourArea(cj) < view.min_px / 3:
             continue  # a fragment (at least 3 px wide after the opening) far below a part
         x0, y0 = mos.boxes[k, :2].tolist()
-        mx, my = mos.at[k].tolist()
+        mx, my = mos.at_list[k]
         bx, by, bbw, bbh = cv2.boundingRect(cj)
         bx, by = bx - mx + x0, by - my + y0
         picks.append(j)

@@ -2,12 +2,12 @@
 meant for each window alone runs as one OpenCV call on all of them.
 
 Window ``k`` of the frame (full scale, ``[y0:y1, x0:x1]``, even corners) sits in the
-mosaic at ``at[k]`` = (x, y), at least 8 px from every other window and from the mosaic's
-edge. The windows are placed so that one 8x bilinear upscaling (``cv2.resize``) of the
-frame's 1/8-scale background blocks around them, laid side by side, gives each window's
-background exactly as upscaling the whole 1/8-scale image would (the blocks keep one
-small pixel around what the window needs; beyond the image, the edge pixel repeated:
-what ``cv2.resize`` does there).
+mosaic at ``at[k]`` = (x, y) (even), in a row, ``2 ring`` px (at least 2) from the next
+window and ``ring`` px from the mosaic's edge. Its background is what one 8x bilinear
+upscaling (``cv2.resize``) of the frame's 1/8-scale background blocks around all the
+windows, laid side by side, gives there: exactly what upscaling the whole 1/8-scale image
+would (each block keeps one small pixel around what its window needs; beyond the image,
+the edge pixel repeated, as ``cv2.resize`` does there).
 
 A 3x3 opening in the mosaic equals that opening in each window alone (whose borders do
 not count for erosion nor dilation, OpenCV's default), as long as the gaps stay neutral:
@@ -26,36 +26,45 @@ _K3 = np.ones((3, 3), np.uint8)
 
 
 class Mosaic:
-    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners) and
-    the background there: ``bg`` uint8 RGB (H, W, 3) upscaled from ``bg_small`` (uint8
-    RGB, the frame's background at 1/8 scale); ``inside`` uint8 (H, W), 255 on the windows
-    and 0 between them (``outside`` the reverse); ``col`` (W,) the window of each mosaic
-    column (-1 between)."""
+    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners)
+    with ``ring`` px around each, and the background there: ``bg`` uint8 RGB (H, W, 3)
+    upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; zero
+    off the windows); ``inside`` uint8 (H, W), 255 on the windows and 0 between them
+    (``outside`` the reverse); ``col`` (W,) the window of each mosaic column (-1 between)."""
 
-    def __init__(self, boxes: np.ndarray, bg_small: np.ndarray) -> None:
+    def __init__(self, boxes: np.ndarray, bg_small: np.ndarray, ring: int) -> None:
         hs, ws = bg_small.shape[:2]
+        ring += ring & 1  # even, so that the windows sit at even places
         padded = cv2.copyMakeBorder(bg_small, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-        blocks, at = [], []
+        blocks, up_at, at = [], [], []
         width = 0
-        for x0, y0, x1, y1 in boxes.tolist():
+        x = ring
+        box_list = boxes.tolist()
+        for x0, y0, x1, y1 in box_list:
             # padded-block rows and columns: one small pixel beyond those the window samples
             i0, j0 = y0 // _S, x0 // _S
             i1, j1 = min(-(-y1 // _S) + 2, hs + 2), min(-(-x1 // _S) + 2, ws + 2)
             blocks.append(padded[i0:i1, j0:j1])
             # the small column j0 - 1 (padded j0) centres at 8 (j0 - 1) + 3.5 in the frame
-            at.append((_S * (width - j0 + 1) + x0, _S * (1 - i0) + y0))
+            up_at.append((_S * (width - j0 + 1) + x0, _S * (1 - i0) + y0))
             width += j1 - j0
+            at.append((x, ring))
+            x += x1 - x0 + ((x1 - x0) & 1) + 2 * ring
         small = np.zeros((max(b.shape[0] for b in blocks), width, 3), np.uint8)
         j = 0
         for b in blocks:
             small[: b.shape[0], j : j + b.shape[1]] = b
             j += b.shape[1]
-        h, w = small.shape[0] * _S, small.shape[1] * _S
-        self.bg = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+        up = cv2.resize(small, (width * _S, small.shape[0] * _S), interpolation=cv2.INTER_LINEAR)
+        tallest = max(y1 - y0 for _, y0, _, y1 in box_list)
+        h, w = tallest + (tallest & 1) + 2 * ring, x - ring
         self.boxes, self.at_list, self.at = boxes, at, np.array(at)
+        self.bg = np.zeros((h, w, 3), np.uint8)
         self.inside = np.zeros((h, w), np.uint8)
         self.col = np.full(w, -1, np.int64)
-        for k, ((mx, my), (x0, y0, x1, y1)) in enumerate(zip(at, boxes.tolist(), strict=True)):
+        for k, ((mx, my), (ux, uy), (x0, y0, x1, y1)) in enumerate(zip(at, up_at, box_list,
+                                                                        strict=True)):
+            self.bg[my : my + y1 - y0, mx : mx + x1 - x0] = up[uy : uy + y1 - y0, ux : ux + x1 - x0]
             self.inside[my : my + y1 - y0, mx : mx + x1 - x0] = 255
             self.col[mx : mx + x1 - x0] = k
         self.outside = cv2.bitwise_not(self.inside)
@@ -68,8 +77,8 @@ class Mosaic:
 
     def paste(self, img: np.ndarray, ring: int) -> np.ndarray:
         """The windows of uint8 RGB frame ``img`` (H, W, 3) in a mosaic (zero between them),
-        each with ``ring`` px (at most 8) of the frame around it, mirrored beyond the frame's
-        edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
+        each with ``ring`` px (at most the layout's) of the frame around it, mirrored beyond
+        the frame's edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
         out = np.zeros(self.bg.shape, np.uint8)
         h, w = img.shape[:2]
         for k, (x0, y0, x1, y1) in enumerate(self.boxes.tolist()):

@@ -287,9 +287,10 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     x, y, bw, bh = np.array([cv2.boundingRect(c) for c in parts]).T
     hx0, hy0 = np.maximum(x - 4, 0), np.maximum(y - 4, 0)  # the box and 4 px, half scale
     hx1, hy1 = np.minimum(x + bw + 4, hw), np.minimum(y + bh + 4, hh)
+    ring = max(view.smooth // 2, 1)  # the support of the 3x3 mean, or of the box filter
     mos = Mosaic(np.stack((2 * hx0, 2 * hy0, np.minimum(2 * hx1, w), np.minimum(2 * hy1, h)), 1),
-                 view.bg_small)
-    img = mos.paste(view.img, max(view.smooth // 2, 1))  # the 3x3 mean's or the box filter's
+                 view.bg_small, ring)
+    img = mos.paste(view.img, ring)
     src = cv2.blur(img, (view.smooth, view.smooth)) if view.smooth else img
     d = cv2.bitwise_and(_max_channel_diff(src, mos.bg), mos.inside)
     fg = mos.open3(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1])

@@ -30,7 +30,8 @@ class Mosaic:
     with ``ring`` px around each, and the background there: ``bg`` uint8 RGB (H, W, 3)
     upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; zero
     off the windows); ``inside`` uint8 (H, W), 255 on the windows and 0 between them
-    (``outside`` the reverse); ``col`` (W,) the window of each mosaic column (-1 between)."""
+    (``outside`` the reverse); ``label`` uint8 (H, W) the window of each pixel (255
+    between; at most 255 windows)."""
 
     def __init__(self, boxes: np.ndarray, bg_small: np.ndarray, ring: int) -> None:
         hs, ws = bg_small.shape[:2]
@@ -61,12 +62,12 @@ class Mosaic:
         self.boxes, self.at_list, self.at = boxes, at, np.array(at)
         self.bg = np.zeros((h, w, 3), np.uint8)
         self.inside = np.zeros((h, w), np.uint8)
-        self.col = np.full(w, -1, np.int64)
+        self.label = np.full((h, w), 255, np.uint8)
         for k, ((mx, my), (ux, uy), (x0, y0, x1, y1)) in enumerate(zip(at, up_at, box_list,
                                                                         strict=True)):
             self.bg[my : my + y1 - y0, mx : mx + x1 - x0] = up[uy : uy + y1 - y0, ux : ux + x1 - x0]
             self.inside[my : my + y1 - y0, mx : mx + x1 - x0] = 255
-            self.col[mx : mx + x1 - x0] = k
+            self.label[my : my + y1 - y0, mx : mx + x1 - x0] = k
         self.outside = cv2.bitwise_not(self.inside)
 
     def window(self, a: np.ndarray, k: int, ring: int = 0) -> np.ndarray:

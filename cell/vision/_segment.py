@@ -250,7 +250,7 @@ def find_blobs(view: FrameView) -> list[Blob]:
     if hier is None:
         return []
     parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
-    return _refine(view, parts) if parts else []
+    return [b for i in range(0, len(parts), 255) for b in _refine(view, parts[i : i + 255])]
 
 
 def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):
@@ -303,7 +303,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     near = cv2.resize(cv2.dilate(near, _K3), fg.shape[::-1], interpolation=cv2.INTER_NEAREST)
     own = cv2.bitwise_and(fg, near)  # 0/1
     level = _levels(view, mos, d, own)
-    above = np.greater(d, level[mos.col]).view(np.uint8)  # (255 between the boxes)
+    above = cv2.compare(d, cv2.LUT(mos.label, level), cv2.CMP_GT)  # (none between boxes)
     keep = cv2.bitwise_and(cv2.dilate(own, _K3), above)
     if not view.backlit and st.shadow_chroma > 0:  # a light table casts no shadows
         _drop_shadow(keep, img, mos.bg, st.shadow_chroma)
@@ -315,19 +315,21 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
 
 
 def _levels(view: FrameView, mos: Mosaic, d: np.ndarray, own: np.ndarray) -> np.ndarray:
-    """Each box's re-threshold, as uint8 (n + 1,) (the last, 255, for no box): the
+    """Each box's re-threshold, as a uint8 table (256,) by box (255 beyond them): the
     frame's threshold or ``edge_level`` times the upper median of ``d`` (uint8 mosaic)
     over the box's ``own`` pixels (uint8 0/1), whichever is higher, floored
     (``cv2.threshold`` compares uint8 pixels with the floor of its threshold). The
-    medians come from each box's histogram (``cv2.calcHist``)."""
-    hist = np.hstack([cv2.calcHist([mos.window(d, k)], [0], mos.window(own, k), [256], [0, 256])
-                      for k in range(len(mos.boxes))]).T
+    medians come from one histogram of (box, difference) pairs (``cv2.calcHist``)."""
+    n = len(mos.boxes)
+    hist = cv2.calcHist([mos.label, d], [0, 1], own, [n, 256], [0, n, 0, 256])
     cum = np.cumsum(hist.astype(np.int64), axis=1)
     count = cum[:, -1]
     med = np.count_nonzero(cum <= (count // 2)[:, None], axis=1)  # as np.partition's
     level = np.where(count > 0, np.maximum(view.threshold, view.settings.edge_level * med),
                      view.threshold)
-    return np.append(np.minimum(np.floor(level), 255), 255).astype(np.uint8)
+    table = np.full(256, 255, np.uint8)
+    table[:n] = np.minimum(np.floor(level), 255)
+    return table
 
 
 def _blobs(view: FrameView, mos: Mosaic, sub: np.ndarray, cs, hr) -> list[Blob]:
@@ -337,7 +339,7 @@ def _blobs(view: FrameView, mos: Mosaic, sub: np.ndarray, cs, hr) -> list[Blob]:
     h, w = view.fg.shape
     mgn = view.settings.border_margin
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = mos.col[[int(cs[j][0, 0, 0]) for j in outer]].tolist()
+    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
     n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     labels: dict[int, np.ndarray] = {}

@@ -28,7 +28,7 @@ _K3 = np.ones((3, 3), np.uint8)
 class Mosaic:
     """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners)
     with ``ring`` px around each, and the background there: ``bg`` uint8 RGB (H, W, 3)
-    upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; zero
+    upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; undefined
     off the windows); ``inside`` uint8 (H, W), 255 on the windows and 0 between them
     (``outside`` the reverse); ``label`` uint8 (H, W) the window of each pixel (255
     between; at most 255 windows)."""
@@ -60,14 +60,13 @@ class Mosaic:
         tallest = max(y1 - y0 for _, y0, _, y1 in box_list)
         h, w = tallest + (tallest & 1) + 2 * ring, x - ring
         self.boxes, self.at_list, self.at = boxes, at, np.array(at)
-        self.bg = np.zeros((h, w, 3), np.uint8)
-        self.inside = np.zeros((h, w), np.uint8)
+        self.bg = np.empty((h, w, 3), np.uint8)  # (only the windows are read)
         self.label = np.full((h, w), 255, np.uint8)
         for k, ((mx, my), (ux, uy), (x0, y0, x1, y1)) in enumerate(zip(at, up_at, box_list,
                                                                         strict=True)):
             self.bg[my : my + y1 - y0, mx : mx + x1 - x0] = up[uy : uy + y1 - y0, ux : ux + x1 - x0]
-            self.inside[my : my + y1 - y0, mx : mx + x1 - x0] = 255
             self.label[my : my + y1 - y0, mx : mx + x1 - x0] = k
+        self.inside = cv2.compare(self.label, 255, cv2.CMP_NE)
         self.outside = cv2.bitwise_not(self.inside)
 
     def window(self, a: np.ndarray, k: int, ring: int = 0) -> np.ndarray:
@@ -77,10 +76,10 @@ class Mosaic:
         return a[my - ring : my + y1 - y0 + ring, mx - ring : mx + x1 - x0 + ring]
 
     def paste(self, img: np.ndarray, ring: int) -> np.ndarray:
-        """The windows of uint8 RGB frame ``img`` (H, W, 3) in a mosaic (zero between them),
+        """The windows of uint8 RGB frame ``img`` (H, W, 3) in a mosaic (undefined between),
         each with ``ring`` px (at most the layout's) of the frame around it, mirrored beyond
         the frame's edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
-        out = np.zeros(self.bg.shape, np.uint8)
+        out = np.empty(self.bg.shape, np.uint8)
         h, w = img.shape[:2]
         for k, (x0, y0, x1, y1) in enumerate(self.boxes.tolist()):
             xa, ya, xb, yb = max(x0 - ring, 0), max(y0 - ring, 0), min(x1 + ring, w), min(y1 + ring, h)

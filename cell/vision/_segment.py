@@ -211,12 +211,13 @@ def _dark(mean: np.ndarray, bg: np.ndarray) -> np.ndarray:
     return cv2.threshold(cv2.cvtColor(below, cv2.COLOR_RGB2GRAY), 254, 1, cv2.THRESH_BINARY)[1]
 
 
-def _same_colour(mean: np.ndarray, bg: np.ndarray, idx: np.ndarray, chroma: float) -> np.ndarray:
-    """At the pixels ``idx`` of ``mean`` and ``bg`` ((N, 3) uint8), whether the three ratios
-    mean / (bg + 1) (float32, ``cv2.divide``) spread by less than ``chroma`` of their
-    largest: bool (len(idx),)."""
-    red, green, blue = cv2.divide(np.take(mean, idx, axis=0),
-                                  cv2.add(np.take(bg, idx, axis=0), 1), dtype=cv2.CV_32F).T
+def _same_colour(mean: np.ndarray, bg: np.ndarray, idx: np.ndarray, chroma: float,
+                 bg_idx: np.ndarray | None = None) -> np.ndarray:
+    """At the pixels ``idx`` of ``mean`` and ``bg_idx`` (default ``idx``) of ``bg`` ((N, 3)
+    uint8), whether the three ratios mean / (bg + 1) (float32, ``cv2.divide``) spread by
+    less than ``chroma`` of their largest: bool (len(idx),)."""
+    bg = np.take(bg, idx if bg_idx is None else bg_idx, axis=0)
+    red, green, blue = cv2.divide(np.take(mean, idx, axis=0), cv2.add(bg, 1), dtype=cv2.CV_32F).T
     rmax = np.maximum(np.maximum(red, green), blue)
     rmin = np.minimum(np.minimum(red, green), blue)
     return rmin > (1.0 - chroma) * rmax
@@ -232,14 +233,14 @@ def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: floa
     h, w = keep.shape
     xa, ya, xb, yb = max(rx - 1, 0), max(ry - 1, 0), min(rx + rw + 1, w), min(ry + rh + 1, h)
     mean = cv2.blur(img[ya:yb, xa:xb], (3, 3))
-    bg = np.ascontiguousarray(bg[ya:yb, xa:xb])
     box = keep[ya:yb, xa:xb]
-    cand = cv2.bitwise_and(_dark(mean, bg), box)  # 0/1 where box is 0/1 or 0/255
+    cand = cv2.bitwise_and(_dark(mean, bg[ya:yb, xa:xb]), box)  # 0/1 (box 0/1 or 0/255)
     idx = np.flatnonzero(cand.view(bool))
     if idx.size:
-        ys, xs = np.divmod(idx[_same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma)],
-                           xb - xa)
-        box[ys, xs] = 0
+        ys, xs = np.divmod(idx, xb - xa)
+        sh = _same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma,
+                          (ys + ya) * w + xs + xa)
+        box[ys[sh], xs[sh]] = 0
 
 
 def find_blobs(view: FrameView) -> list[Blob]:

@@ -15,6 +15,8 @@ import numpy as np
 
 __all__: list[str] = []  # private to cell.vision
 
+_BATCH = 4  # from this many contours on, outline normals are computed all at once
+
 
 @dataclass
 class Blob:
@@ -29,25 +31,14 @@ class Blob:
     splits: np.ndarray | None = None
 
 
-def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool,
-              box: tuple[int, int, int, int] | None = None) -> Blob:
-    """The blob of outer contour ``i`` of a ``cv2.findContours`` result (RETR_CCOMP), with
-    its holes (children of at least 6 points); ``pts`` is that contour as (N, 2) int
-    pixels of a crop at ``offset`` (x0, y0) in the frame; ``box`` its bounding box in the
-    frame (x, y, w, h) if known."""
-    if box is None:
-        bx, by, bw, bh = cv2.boundingRect(pts)
-        box = (bx + offset[0], by + offset[1], bw, bh)
-    return make_blobs(contours, hier, [i], [offset], [partial], [box])[0]
-
-
 def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
                partial: list[bool], boxes: list[tuple[int, int, int, int]]) -> list[Blob]:
     """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
     (RETR_CCOMP), each with its holes (children of at least 6 points): contour
     ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
-    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all of them are
-    computed at once (:func:`outline_normals_many`)."""
+    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of many contours are
+    computed at once (:func:`outline_normals_many`), of a few one by one (the same
+    numbers, with less overhead)."""
     members, shifts, hole = [], [], []  # each blob's outline, then its holes
     for i, off in zip(outer, offsets, strict=True):
         members.append(contours[i])
@@ -60,20 +51,22 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
                 shifts.append(off)
                 hole.append(True)
             j = hier[j][0]
-    lengths = np.array([len(m) for m in members])
-    pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
-    outline, normals = outline_normals_many(pts, lengths, np.array(hole))
-    ends = np.cumsum(lengths).tolist()
+    if len(members) < _BATCH:
+        pieces = [outline_normals(m.reshape(-1, 2) + off, hole=h)
+                  for m, off, h in zip(members, shifts, hole, strict=True)]
+    else:
+        lengths = np.array([len(m) for m in members])
+        pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
+        outline, normals = outline_normals_many(pts, lengths, np.array(hole))
+        ends = np.cumsum(lengths).tolist()
+        pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
     blobs: list[Blob] = []
-    start = 0
-    for is_hole, end in zip(hole, ends, strict=True):
-        piece = (outline[start:end], normals[start:end])
+    for is_hole, piece in zip(hole, pieces, strict=True):
         if is_hole:
             blobs[-1].holes.append(piece)
         else:
             k = len(blobs)
             blobs.append(Blob(piece[0], piece[1], [], boxes[k], partial[k]))
-        start = end
     return blobs
 
 
@@ -81,7 +74,27 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     """A pixel contour (N, 2) shifted half a pixel outward, with the region's outward
     unit normals (the tangent over five points turned by 90 degrees). For a hole contour
     "outward" points into the hole."""
-    return outline_normals_many(pts, np.array([len(pts)]), np.array([hole]))
+    p = pts.astype(np.float64)
+    k = len(p)
+    if k < 5:
+        t = np.concatenate((p[2:], p[:2])) - np.concatenate((p[-2:], p[:-2]))
+    else:  # the same differences p[i + 2] - p[i - 2] (wrapped), without the copies
+        t = np.empty_like(p)
+        np.subtract(p[4:], p[:-4], out=t[2:-2])
+        np.subtract(p[2:4], p[-2:], out=t[:2])
+        np.subtract(p[:2], p[-4:-2], out=t[-2:])
+    # findContours traces outer boundaries one way and holes the other; the sign of the
+    # area says which way this one runs
+    flip = cv2.contourArea(pts.astype(np.int32), oriented=True) < 0
+    n = np.empty_like(t)  # t turned by -90 degrees (+90 when flipped)
+    if flip != hole:
+        np.negative(t[:, 1], out=n[:, 0])
+        n[:, 1] = t[:, 0]
+    else:
+        n[:, 0] = t[:, 1]
+        np.negative(t[:, 0], out=n[:, 1])
+    n /= np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)[:, None]
+    return p + 0.5 * n, n
 
 
 def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,

@@ -143,7 +143,7 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
     contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    hier = hier[0]
+    hier = hier[0].tolist()
     outer = [i for i, c in enumerate(contours)
              if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30]
     if not outer:

@@ -250,7 +250,7 @@ def find_blobs(view: FrameView) -> list[Blob]:
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
+    parts = list(_part_contours(view, contours, hier[0].tolist(), (0, 0), cut=True))
     return [b for i in range(0, len(parts), 255) for b in _refine(view, parts[i : i + 255])]
 
 
@@ -273,7 +273,7 @@ def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, 
             sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, _K3)
             cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
             if hr is not None:
-                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False)
+                yield from _part_contours(view, cs, hr[0].tolist(), (ox, oy), cut=False)
 
 
 def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
@@ -312,7 +312,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return []
-    return _blobs(view, mos, sub, cs, hr[0])
+    return _blobs(view, mos, sub, cs, hr[0].tolist())
 
 
 def _levels(view: FrameView, mos: Mosaic, d: np.ndarray, own: np.ndarray) -> np.ndarray:

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from cell.vision._mosaic import Mosaic
+
 __all__: list[str] = []  # private to cell.vision
 
 _BATCH = 4  # from this many contours on, outline normals are computed all at once
@@ -153,6 +155,49 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
         bx, by, bw, bh = cv2.boundingRect(contours[i])
         boxes.append((bx + offset[0], by + offset[1], bw, bh))
     return make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
+
+
+def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int], margin: int,
+                     min_area: float) -> list[Blob]:
+    """Blobs of the outer contours ``cs`` (hierarchy ``hr`` as a list, ``cv2.RETR_CCOMP``)
+    of ``sub`` (uint8 0/1), a mosaic ``mos`` of windows of a
+    frame of ``shape`` (H, W), window by window: those of at least 8 points and
+    ``min_area`` px^2, partial within ``margin`` px of the frame's edge, each with its own
+    pixels (uint8 0/255, its window's shape) as ``roi``."""
+    h, w = shape
+    outer = [j for j in range(len(cs)) if hr[j][3] == -1]
+    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
+    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
+    picks, offsets, partial, boxes, rois = [], [], [], [], []
+    labels: dict[int, np.ndarray] = {}
+    for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
+        cj = cs[j]
+        if len(cj) < 8 or cv2.contourArea(cj) < min_area:
+            continue  # a fragment (at least 3 px wide after the opening) far below a part
+        x0, y0 = mos.boxes[k, :2].tolist()
+        mx, my = mos.at_list[k]
+        bx, by, bbw, bbh = cv2.boundingRect(cj)
+        bx, by = bx - mx + x0, by - my + y0
+        picks.append(j)
+        offsets.append((x0 - mx, y0 - my))
+        partial.append(bx <= margin or by <= margin or bx + bbw >= w - margin
+                       or by + bbh >= h - margin)
+        boxes.append((bx, by, bbw, bbh))
+        win = mos.window(sub, k)
+        if n_outer[k] == 1:
+            own = cv2.compare(win, 0, cv2.CMP_GT)
+        else:  # this part's pixels only, not a neighbour's
+            if k not in labels:
+                labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
+            px, py = int(cj[0, 0, 0]) - mx, int(cj[0, 0, 1]) - my
+            own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
+        rois.append((x0, y0, own))
+    if not picks:
+        return []
+    blobs = make_blobs(cs, hr, picks, offsets, partial, boxes)
+    for blob, roi in zip(blobs, rois, strict=True):
+        blob.roi = roi
+    return blobs
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

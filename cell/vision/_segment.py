@@ -8,7 +8,8 @@ median + k * MAD; fixed; or Otsu) and opened. Each blob is then refined at full 
 its own box only: the difference there is re-thresholded at a fraction (``edge_level``)
 of the blob's own contrast, and shadow pixels (the background darkened without a change
 of colour) are dropped, so the outline sits on the part's edge whatever its contrast.
-No full-scale operation runs on the whole frame.
+No full-scale operation runs on the whole frame; the boxes are processed all at once,
+side by side in one image (:mod:`cell.vision._mosaic`), each as if alone.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, make_blobs
+from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic
 from cell.vision.settings import VisionSettings
@@ -312,62 +313,18 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return []
-    return _blobs(view, mos, sub, cs, hr[0].tolist())
+    return blobs_of_windows(mos, sub, cs, hr[0].tolist(), view.fg.shape,
+                            view.settings.border_margin, view.min_px / 3)
 
 
 def _levels(view: FrameView, mos: Mosaic, d: np.ndarray, own: np.ndarray) -> np.ndarray:
     """Each box's re-threshold, as a uint8 table (256,) by box (255 beyond them): the
-    frame's threshold or ``edge_level`` times the upper median of ``d`` (uint8 mosaic)
-    over the box's ``own`` pixels (uint8 0/1), whichever is higher, floored
-    (``cv2.threshold`` compares uint8 pixels with the floor of its threshold). The
-    medians come from one histogram of (box, difference) pairs (``cv2.calcHist``)."""
-    n = len(mos.boxes)
-    hist = cv2.calcHist([mos.label, d], [0, 1], own, [n, 256], [0, n, 0, 256])
-    cum = np.cumsum(hist.astype(np.int64), axis=1)
-    count = cum[:, -1]
-    med = np.count_nonzero(cum <= (count // 2)[:, None], axis=1)  # as np.partition's
+    frame's threshold or ``edge_level`` times the box's median contrast (:meth:`Mosaic.
+    medians` of ``d`` over ``own``), whichever is higher, floored (``cv2.threshold``
+    compares uint8 pixels with the floor of its threshold)."""
+    med, count = mos.medians(d, own)
     level = np.where(count > 0, np.maximum(view.threshold, view.settings.edge_level * med),
                      view.threshold)
     table = np.full(256, 255, np.uint8)
-    table[:n] = np.minimum(np.floor(level), 255)
+    table[: len(level)] = np.minimum(np.floor(level), 255)
     return table
-
-
-def _blobs(view: FrameView, mos: Mosaic, sub: np.ndarray, cs, hr) -> list[Blob]:
-    """Blobs of the outer contours ``cs`` (hierarchy ``hr``, ``cv2.RETR_CCOMP``) of the
-    refined foreground mosaic ``sub`` (uint8, 0/1), box by box: those of at least 8 points
-    and a third of the smallest part's area, each with its own pixels as ``roi``."""
-    h, w = view.fg.shape
-    mgn = view.settings.border_margin
-    outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
-    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
-    picks, offsets, partial, boxes, rois = [], [], [], [], []
-    labels: dict[int, np.ndarray] = {}
-    for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
-        cj = cs[j]
-        if len(cj) < 8 or cv2.contourArea(cj) < view.min_px / 3:
-            continue  # a fragment (at least 3 px wide after the opening) far below a part
-        x0, y0 = mos.boxes[k, :2].tolist()
-        mx, my = mos.at_list[k]
-        bx, by, bbw, bbh = cv2.boundingRect(cj)
-        bx, by = bx - mx + x0, by - my + y0
-        picks.append(j)
-        offsets.append((x0 - mx, y0 - my))
-        partial.append(bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn)
-        boxes.append((bx, by, bbw, bbh))
-        win = mos.window(sub, k)
-        if n_outer[k] == 1:
-            own = cv2.compare(win, 0, cv2.CMP_GT)
-        else:  # this part's pixels only, not a neighbour's
-            if k not in labels:
-                labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
-            px, py = int(cj[0, 0, 0]) - mx, int(cj[0, 0, 1]) - my
-            own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
-        rois.append((x0, y0, own))
-    if not picks:
-        return []
-    blobs = make_blobs(cs, hr, picks, offsets, partial, boxes)
-    for blob, roi in zip(blobs, rois, strict=True):
-        blob.roi = roi
-    return blobs

@@ -174,7 +174,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
         cj = cs[j]
         if len(cj) < 8 or cv2.contourArea(cj) < min_area:
             continue  # a fragment (at least 3 px wide after the opening) far below a part
-        x0, y0 = mos.boxes[k, :2].tolist()
+        x0, y0 = mos.boxes[k][:2]
         mx, my = mos.at_list[k]
         bx, by, bbw, bbh = cv2.boundingRect(cj)
         bx, by = bx - mx + x0, by - my + y0

@@ -26,8 +26,9 @@ _K3 = np.ones((3, 3), np.uint8)
 
 
 class Mosaic:
-    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners)
-    with ``ring`` px around each, and the background there: ``bg`` uint8 RGB (H, W, 3)
+    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners;
+    kept as a list) with ``ring`` px around each, their corners ``at`` ((n, 2) int; also
+    ``at_list``) in the mosaic, and the background there: ``bg`` uint8 RGB (H, W, 3)
     upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; undefined
     off the windows); ``inside`` uint8 (H, W), 255 on the windows and 0 between them
     (``outside`` the reverse); ``label`` uint8 (H, W) the window of each pixel (255
@@ -59,7 +60,7 @@ class Mosaic:
         up = cv2.resize(small, (width * _S, small.shape[0] * _S), interpolation=cv2.INTER_LINEAR)
         tallest = max(y1 - y0 for _, y0, _, y1 in box_list)
         h, w = tallest + (tallest & 1) + 2 * ring, x - ring
-        self.boxes, self.at_list, self.at = boxes, at, np.array(at)
+        self.boxes, self.at_list, self.at = box_list, at, np.array(at)
         self.bg = np.empty((h, w, 3), np.uint8)  # (only the windows are read)
         self.label = np.full((h, w), 255, np.uint8)
         for k, ((mx, my), (ux, uy), (x0, y0, x1, y1)) in enumerate(zip(at, up_at, box_list,
@@ -81,7 +82,7 @@ class Mosaic:
         the frame's edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
         out = np.empty(self.bg.shape, np.uint8)
         h, w = img.shape[:2]
-        for k, (x0, y0, x1, y1) in enumerate(self.boxes.tolist()):
+        for k, (x0, y0, x1, y1) in enumerate(self.boxes):
             xa, ya, xb, yb = max(x0 - ring, 0), max(y0 - ring, 0), min(x1 + ring, w), min(y1 + ring, h)
             piece = img[ya:yb, xa:xb]
             if (xa, ya, xb, yb) != (x0 - ring, y0 - ring, x1 + ring, y1 + ring):

@@ -107,35 +107,32 @@ def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,
     p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs (findContours traces
     outer boundaries one way and holes the other) is the sign of its area (shoelace, as
     ``cv2.contourArea(oriented=True)``)."""
-    x, y = pts.astype(np.float64).T
-    m = len(x)
-    ends = np.cumsum(lengths)
-    starts = ends - lengths
-    tx, ty = np.empty(m), np.empty(m)
-    np.subtract(x[4:], x[:-4], out=tx[2:-2])  # within a contour; its ends are redone below
-    np.subtract(y[4:], y[:-4], out=ty[2:-2])
-    local = np.array([0, 1, -2, -1]) + np.zeros((len(lengths), 1), np.int64)  # each end
-    local = np.where(local < 0, local + lengths[:, None], local)
-    ok = (local >= 0) & (local < lengths[:, None])
-    k = np.broadcast_to(lengths[:, None], local.shape)[ok]
-    base = np.broadcast_to(starts[:, None], local.shape)[ok]
-    at = base + local[ok]
-    ahead, back = base + (local[ok] + 2) % k, base + (local[ok] - 2) % k
-    tx[at] = x[ahead] - x[back]
-    ty[at] = y[ahead] - y[back]
-    # twice the signed area, from the cross products of consecutive points (wrapped)
-    x1, y1 = np.empty(m), np.empty(m)
-    x1[:-1], y1[:-1] = x[1:], y[1:]
-    x1[ends - 1], y1[ends - 1] = x[starts], y[starts]
-    flip = (np.add.reduceat(x * y1 - x1 * y, starts) < 0) != hole
+    p = pts.astype(np.float64)
+    m = len(p)
+    t = np.empty_like(p)
+    np.subtract(p[4:], p[:-4], out=t[2:-2])  # within a contour; its ends are redone below
+    ends, at, ahead, back, last, first = 0, [], [], [], [], []
+    for k in lengths.tolist():
+        start, ends = ends, ends + k
+        for i in (0, 1, k - 2, k - 1):
+            if 0 <= i < k:
+                at.append(start + i)
+                ahead.append(start + (i + 2) % k)
+                back.append(start + (i - 2) % k)
+        first.append(start)
+        last.append(ends - 1)
+    t[at] = p[ahead] - p[back]
+    nxt = np.arange(1, m + 1)  # each point's successor, wrapped
+    nxt[last] = first
+    q = p[nxt]
+    # twice the signed area, from the cross products of consecutive points
+    flip = (np.add.reduceat(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], first) < 0) != hole
     sign = np.repeat(np.where(flip, -1.0, 1.0), lengths)  # t turned by +90 deg where -1
-    norm = np.maximum(np.sqrt(tx * tx + ty * ty), 1e-9)
-    nrm = np.empty((m, 2))
-    nrm[:, 0] = sign * ty / norm
-    nrm[:, 1] = -sign * tx / norm
-    out = np.empty((m, 2))
-    out[:, 0] = x + 0.5 * nrm[:, 0]
-    out[:, 1] = y + 0.5 * nrm[:, 1]
+    norm = np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)
+    nrm = np.empty_like(t)
+    nrm[:, 0] = sign * t[:, 1] / norm
+    nrm[:, 1] = -sign * t[:, 0] / norm
+    out = p + 0.5 * nrm
     return out, nrm
 
 

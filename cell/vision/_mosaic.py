@@ -2,8 +2,8 @@
 meant for each window alone runs as one OpenCV call on all of them.
 
 Window ``k`` of the frame (full scale, ``[y0:y1, x0:x1]``, even corners) sits in the
-mosaic at ``at[k]`` = (x, y) (even), in a row, ``2 ring`` px (at least 2) from the next
-window and ``ring`` px from the mosaic's edge. Its background is what one 8x bilinear
+mosaic at ``at[k]`` = (x, y) (even), in a row, ``2 ring`` px from the next window and
+``ring`` px from the mosaic's edge (``ring`` rounded up to even). Its background is what one 8x bilinear
 upscaling (``cv2.resize``) of the frame's 1/8-scale background blocks around all the
 windows, laid side by side, gives there: exactly what upscaling the whole 1/8-scale image
 would (each block keeps one small pixel around what its window needs; beyond the image,
@@ -22,6 +22,7 @@ import numpy as np
 __all__: list[str] = []  # private to cell.vision
 
 _S = 8  # the background's downscale factor
+MAX_WINDOWS = 255  # windows in one mosaic (its label image is uint8, 255 for none)
 _K3 = np.ones((3, 3), np.uint8)
 
 

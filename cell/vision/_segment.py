@@ -22,7 +22,7 @@ import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
-from cell.vision._mosaic import Mosaic
+from cell.vision._mosaic import MAX_WINDOWS, Mosaic
 from cell.vision.settings import VisionSettings
 
 __all__: list[str] = []  # private to cell.vision
@@ -252,7 +252,8 @@ def find_blobs(view: FrameView) -> list[Blob]:
     if hier is None:
         return []
     parts = list(_part_contours(view, contours, hier[0].tolist(), (0, 0), cut=True))
-    return [b for i in range(0, len(parts), 255) for b in _refine(view, parts[i : i + 255])]
+    n = MAX_WINDOWS
+    return [b for i in range(0, len(parts), n) for b in _refine(view, parts[i : i + n])]
 
 
 def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):

@@ -295,7 +295,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
                  view.bg_small, ring)
     img = mos.paste(view.img, ring)
     src = cv2.blur(img, (view.smooth, view.smooth)) if view.smooth else img
-    d = cv2.bitwise_and(_max_channel_diff(src, mos.bg), mos.inside)
+    d = _max_channel_diff(src, mos.bg)  # (undefined between boxes: every use is masked)
     fg = mos.open3(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1])
     for k, (x0, y0, x1, y1) in enumerate(mos.boxes):
         view.fg[y0:y1, x0:x1] |= mos.window(fg, k)

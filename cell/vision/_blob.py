@@ -13,7 +13,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from cell.vision._mosaic import Mosaic
+
 __all__: list[str] = []  # private to cell.vision
+
+_BATCH = 4  # from this many contours on, outline normals are computed all at once
 
 
 @dataclass
@@ -29,27 +33,43 @@ class Blob:
     splits: np.ndarray | None = None
 
 
-def make_blob(pts: np.ndarray, contours, hier, i: int, offset, partial: bool,
-              box: tuple[int, int, int, int] | None = None) -> Blob:
-    """The blob of outer contour ``i`` of a ``cv2.findContours`` result (RETR_CCOMP), with
-    its holes (children of at least 6 points); ``pts`` is that contour as (N, 2) int
-    pixels of a crop at ``offset`` (x0, y0) in the frame; ``box`` its bounding box in the
-    frame (x, y, w, h) if known."""
-    ox, oy = offset
-    pts = pts + (ox, oy) if (ox or oy) else pts
-    outline, normals = outline_normals(pts, hole=False)
-    holes = []
-    j = hier[i][2]
-    while j != -1:
-        hc = contours[j]
-        if len(hc) >= 6:
-            hc = hc.reshape(-1, 2)
-            holes.append(outline_normals(hc + (ox, oy) if (ox or oy) else hc, hole=True))
-        j = hier[j][0]
-    if box is None:
-        bx, by, bw, bh = cv2.boundingRect(contours[i])
-        box = (bx + ox, by + oy, bw, bh)
-    return Blob(outline, normals, holes, box, partial)
+def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
+               partial: list[bool], boxes: list[tuple[int, int, int, int]]) -> list[Blob]:
+    """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
+    (RETR_CCOMP), each with its holes (children of at least 6 points): contour
+    ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
+    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of many contours are
+    computed at once (:func:`outline_normals_many`), of a few one by one (the same
+    numbers, with less overhead)."""
+    members, shifts, hole = [], [], []  # each blob's outline, then its holes
+    for i, off in zip(outer, offsets, strict=True):
+        members.append(contours[i])
+        shifts.append(off)
+        hole.append(False)
+        j = hier[i][2]
+        while j != -1:
+            if len(contours[j]) >= 6:
+                members.append(contours[j])
+                shifts.append(off)
+                hole.append(True)
+            j = hier[j][0]
+    if len(members) < _BATCH:
+        pieces = [outline_normals(m.reshape(-1, 2) + off, hole=h)
+                  for m, off, h in zip(members, shifts, hole, strict=True)]
+    else:
+        lengths = np.array([len(m) for m in members])
+        pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
+        outline, normals = outline_normals_many(pts, lengths, np.array(hole))
+        ends = np.cumsum(lengths).tolist()
+        pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
+    blobs: list[Blob] = []
+    for is_hole, piece in zip(hole, pieces, strict=True):
+        if is_hole:
+            blobs[-1].holes.append(piece)
+        else:
+            k = len(blobs)
+            blobs.append(Blob(piece[0], piece[1], [], boxes[k], partial[k]))
+    return blobs
 
 
 def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -79,18 +99,102 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     return p + 0.5 * n, n
 
 
+def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,
+                         hole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`outline_normals` of many contours at once: ``pts`` (M, 2) int pixels, the
+    contours one after another, ``lengths`` (n,) their point counts (at least 1), ``hole``
+    (n,) bool which of them are holes. The tangent at point i of a contour of k points is
+    p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs (findContours traces
+    outer boundaries one way and holes the other) is the sign of its area (shoelace, as
+    ``cv2.contourArea(oriented=True)``)."""
+    p = pts.astype(np.float64)
+    m = len(p)
+    t = np.empty_like(p)
+    np.subtract(p[4:], p[:-4], out=t[2:-2])  # within a contour; its ends are redone below
+    ends, at, ahead, back, last, first = 0, [], [], [], [], []
+    for k in lengths.tolist():
+        start, ends = ends, ends + k
+        for i in (0, 1, k - 2, k - 1):
+            if 0 <= i < k:
+                at.append(start + i)
+                ahead.append(start + (i + 2) % k)
+                back.append(start + (i - 2) % k)
+        first.append(start)
+        last.append(ends - 1)
+    t[at] = p[ahead] - p[back]
+    nxt = np.arange(1, m + 1)  # each point's successor, wrapped
+    nxt[last] = first
+    q = p[nxt]
+    # twice the signed area, from the cross products of consecutive points
+    flip = (np.add.reduceat(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], first) < 0) != hole
+    sign = np.repeat(np.where(flip, -1.0, 1.0), lengths)  # t turned by +90 deg where -1
+    norm = np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)
+    nrm = np.empty_like(t)
+    nrm[:, 0] = sign * t[:, 1] / norm
+    nrm[:, 1] = -sign * t[:, 0] / norm
+    out = p + 0.5 * nrm
+    return out, nrm
+
+
 def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
     """Blobs (outer contours of at least 8 points and 30 px^2, with holes) of a uint8
     mask crop whose top-left corner is at ``offset`` in the frame."""
     contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    hier = hier[0]
-    return [
-        make_blob(c.reshape(-1, 2), contours, hier, i, offset, False)
-        for i, c in enumerate(contours)
-        if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30
-    ]
+    hier = hier[0].tolist()
+    outer = [i for i, c in enumerate(contours)
+             if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30]
+    if not outer:
+        return []
+    boxes = []
+    for i in outer:
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        boxes.append((bx + offset[0], by + offset[1], bw, bh))
+    return make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
+
+
+def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int], margin: int,
+                     min_area: float) -> list[Blob]:
+    """Blobs of the outer contours ``cs`` (hierarchy ``hr`` as a list, ``cv2.RETR_CCOMP``)
+    of ``sub`` (uint8 0/1), a mosaic ``mos`` of windows of a
+    frame of ``shape`` (H, W), window by window: those of at least 8 points and
+    ``min_area`` px^2, partial within ``margin`` px of the frame's edge, each with its own
+    pixels (uint8 0/255, its window's shape) as ``roi``."""
+    h, w = shape
+    outer = [j for j in range(len(cs)) if hr[j][3] == -1]
+    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
+    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
+    picks, offsets, partial, boxes, rois = [], [], [], [], []
+    labels: dict[int, np.ndarray] = {}
+    for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
+        cj = cs[j]
+        if len(cj) < 8 or cv2.contourArea(cj) < min_area:
+            continue  # a fragment (at least 3 px wide after the opening) far below a part
+        x0, y0 = mos.boxes[k][:2]
+        mx, my = mos.at_list[k]
+        bx, by, bbw, bbh = cv2.boundingRect(cj)
+        bx, by = bx - mx + x0, by - my + y0
+        picks.append(j)
+        offsets.append((x0 - mx, y0 - my))
+        partial.append(bx <= margin or by <= margin or bx + bbw >= w - margin
+                       or by + bbh >= h - margin)
+        boxes.append((bx, by, bbw, bbh))
+        win = mos.window(sub, k)
+        if n_outer[k] == 1:
+            own = cv2.compare(win, 0, cv2.CMP_GT)
+        else:  # this part's pixels only, not a neighbour's
+            if k not in labels:
+                labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
+            px, py = int(cj[0, 0, 0]) - mx, int(cj[0, 0, 1]) - my
+            own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
+        rois.append((x0, y0, own))
+    if not picks:
+        return []
+    blobs = make_blobs(cs, hr, picks, offsets, partial, boxes)
+    for blob, roi in zip(blobs, rois, strict=True):
+        blob.roi = roi
+    return blobs
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

@@ -8,7 +8,8 @@ median + k * MAD; fixed; or Otsu) and opened. Each blob is then refined at full 
 its own box only: the difference there is re-thresholded at a fraction (``edge_level``)
 of the blob's own contrast, and shadow pixels (the background darkened without a change
 of colour) are dropped, so the outline sits on the part's edge whatever its contrast.
-No full-scale operation runs on the whole frame.
+No full-scale operation runs on the whole frame; the boxes are processed all at once,
+side by side in one image (:mod:`cell.vision._mosaic`), each as if alone.
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, make_blob
+from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
+from cell.vision._mosaic import MAX_WINDOWS, Mosaic
 from cell.vision.settings import VisionSettings
 
 __all__: list[str] = []  # private to cell.vision
@@ -186,41 +188,72 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
     same factor; a part changes the ratios (Cucchiara et al., *Detecting moving objects,
     ghosts and shadows in video streams*, IEEE PAMI 2003: shadows keep chromaticity).
     A shadow pixel is below 0.75 of the background in every channel and ``chroma`` bounds
-    the spread of the three ratios, relative to their largest; 0 = off.
+    the spread of the three ratios, relative to their largest; 0 = off. ``img`` and ``bg``
+    uint8 RGB (H, W, 3); the image is 3x3-averaged first; bool (H, W) out.
     """
     if chroma <= 0:
         return np.zeros(img.shape[:2], bool)
-    ratio = cv2.divide(cv2.blur(img, (3, 3)), cv2.add(bg, 1), dtype=cv2.CV_32F)
-    red, green, blue = cv2.split(ratio)  # max / min over each pixel's three channels
-    rmax = cv2.max(cv2.max(red, green), blue)
-    rmin = cv2.min(cv2.min(red, green), blue)
-    return (rmax < 0.75) & (rmin > (1.0 - chroma) * rmax)
+    mean = cv2.blur(img, (3, 3))
+    out = _dark(mean, bg).view(bool)
+    idx = np.flatnonzero(out)
+    out.ravel()[idx] = _same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma)
+    return out
+
+
+def _dark(mean: np.ndarray, bg: np.ndarray) -> np.ndarray:
+    """uint8 (H, W) 0/1: where each channel of ``mean`` (uint8 RGB (H, W, 3)) is below 0.75
+    of ``bg`` + 1 (uint8 RGB), i.e. 4 mean < 3 (bg + 1) (saturated at 255): the ratio
+    test of :func:`shadow` in integers (a quotient of integers up to 255 is never within
+    a float's rounding of 3/4 unless equal to it)."""
+    # ceil(3 (bg + 1) / 4) = round(0.75 bg + 1.125), exactly (multiples of 1/8)
+    below = cv2.compare(mean, cv2.convertScaleAbs(bg, alpha=0.75, beta=1.125), cv2.CMP_LT)
+    # all three 255: grey 255 (OpenCV's weights sum to one in fixed point; a zero
+    # channel leaves at most 226)
+    return cv2.threshold(cv2.cvtColor(below, cv2.COLOR_RGB2GRAY), 254, 1, cv2.THRESH_BINARY)[1]
+
+
+def _same_colour(mean: np.ndarray, bg: np.ndarray, idx: np.ndarray, chroma: float,
+                 bg_idx: np.ndarray | None = None) -> np.ndarray:
+    """At the pixels ``idx`` of ``mean`` and ``bg_idx`` (default ``idx``) of ``bg`` ((N, 3)
+    uint8), whether the three ratios mean / (bg + 1) (float32, ``cv2.divide``) spread by
+    less than ``chroma`` of their largest: bool (len(idx),)."""
+    bg = np.take(bg, idx if bg_idx is None else bg_idx, axis=0)
+    red, green, blue = cv2.divide(np.take(mean, idx, axis=0), cv2.add(bg, 1), dtype=cv2.CV_32F).T
+    rmax = np.maximum(np.maximum(red, green), blue)
+    rmin = np.minimum(np.minimum(red, green), blue)
+    return rmin > (1.0 - chroma) * rmax
 
 
 def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: float) -> None:
     """Clear the :func:`shadow` pixels of mask ``keep`` (uint8, img's shape), testing only
-    its nonzero pixels' bounding box: that box and one pixel around it (the 3x3 mean's
-    support) give the same shadow there as the whole image does."""
+    its nonzero pixels, with the 3x3 mean over their bounding box and one pixel around
+    it (the mean's support): the same shadow there as the whole image gives."""
     rx, ry, rw, rh = cv2.boundingRect(keep)
     if rw == 0 or rh == 0:
         return
     h, w = keep.shape
     xa, ya, xb, yb = max(rx - 1, 0), max(ry - 1, 0), min(rx + rw + 1, w), min(ry + rh + 1, h)
-    sh = shadow(img[ya:yb, xa:xb], bg[ya:yb, xa:xb], chroma)
-    keep[ry : ry + rh, rx : rx + rw][sh[ry - ya : ry - ya + rh, rx - xa : rx - xa + rw]] = 0
+    mean = cv2.blur(img[ya:yb, xa:xb], (3, 3))
+    box = keep[ya:yb, xa:xb]
+    cand = cv2.bitwise_and(_dark(mean, bg[ya:yb, xa:xb]), box)  # 0/1 (box 0/1 or 0/255)
+    idx = np.flatnonzero(cand.view(bool))
+    if idx.size:
+        ys, xs = np.divmod(idx, xb - xa)
+        sh = _same_colour(mean.reshape(-1, 3), bg.reshape(-1, 3), idx, chroma,
+                          (ys + ya) * w + xs + xa)
+        box[ys[sh], xs[sh]] = 0
 
 
 def find_blobs(view: FrameView) -> list[Blob]:
-    """Outer contours of the half-scale foreground, each refined at full scale in its own
+    """Outer contours of the half-scale foreground, refined at full scale each in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
     edge), are left out. A part touching such a long blob is cut off it by an opening."""
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    blobs = []
-    for c in _part_contours(view, contours, hier[0], (0, 0), cut=True):
-        blobs.extend(_refine(view, c, cv2.boundingRect(c)))
-    return blobs
+    parts = list(_part_contours(view, contours, hier[0].tolist(), (0, 0), cut=True))
+    n = MAX_WINDOWS
+    return [b for i in range(0, len(parts), n) for b in _refine(view, parts[i : i + n])]
 
 
 def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):
@@ -242,72 +275,57 @@ def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, 
             sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, _K3)
             cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
             if hr is not None:
-                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False)
+                yield from _part_contours(view, cs, hr[0].tolist(), (ox, oy), cut=False)
 
 
-def _refine(view: FrameView, c: np.ndarray, box: tuple[int, int, int, int]) -> list[Blob]:
-    """The blob(s) of half-scale contour ``c`` at full scale: the difference in its box
-    (and 8 px around it), thresholded at ``edge_level`` times its median contrast (at
-    least the frame's threshold), less shadow, near the contour's region."""
+def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
+    """The blobs of half-scale contours ``parts`` at full scale, each from its own box
+    (and 8 px around it) as if alone: the difference there thresholded at ``edge_level``
+    times the blob's median contrast (at least the frame's threshold), less shadow, near
+    the contour's region. All boxes are processed at once, side by side in a
+    :class:`~cell.vision._mosaic.Mosaic`."""
     st = view.settings
     h, w = view.fg.shape
-    mgn = st.border_margin
-    x, y, bw, bh = box
-    hx0, hy0 = max(x - 4, 0), max(y - 4, 0)  # the box and 4 px around it, at half scale
-    hx1, hy1 = min(x + bw + 4, view.mask.shape[1]), min(y + bh + 4, view.mask.shape[0])
-    x0, y0, x1, y1 = 2 * hx0, 2 * hy0, min(2 * hx1, w), min(2 * hy1, h)
-    img = view.img[y0:y1, x0:x1]
-    bg = view.background_at(x0, y0, x1, y1)
-    if view.smooth:
-        k = view.smooth
-        r = k // 2
-        xa, ya, xb, yb = max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, w), min(y1 + r, h)
-        blurred = cv2.blur(view.img[ya:yb, xa:xb], (k, k))
-        d = _max_channel_diff(np.ascontiguousarray(blurred[y0 - ya : y1 - ya, x0 - xa : x1 - xa]), bg)
-    else:
-        d = _max_channel_diff(img, bg)
-    fg = cv2.morphologyEx(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1],
-                          cv2.MORPH_OPEN, _K3)
-    view.fg[y0:y1, x0:x1] |= fg
-    # this blob's foreground at full scale: near its half-scale region, not a neighbour's
-    near = np.zeros((hy1 - hy0, hx1 - hx0), np.uint8)
-    cv2.drawContours(near, [c], -1, 255, -1, offset=(-hx0, -hy0))
-    near = cv2.resize(cv2.dilate(near, _K3), ((hx1 - hx0) * 2, (hy1 - hy0) * 2),
-                      interpolation=cv2.INTER_NEAREST)[: y1 - y0, : x1 - x0]
-    own = cv2.bitwise_and(fg, near)
-    inside = d[own > 0]
-    level = view.threshold
-    if inside.size:
-        half = inside.size // 2
-        level = max(level, st.edge_level * float(np.partition(inside, half)[half]))
-    keep = cv2.bitwise_and(cv2.dilate(own, _K3), cv2.threshold(d, level, 255, cv2.THRESH_BINARY)[1])
+    hh, hw = view.mask.shape
+    x, y, bw, bh = np.array([cv2.boundingRect(c) for c in parts]).T
+    hx0, hy0 = np.maximum(x - 4, 0), np.maximum(y - 4, 0)  # the box and 4 px, half scale
+    hx1, hy1 = np.minimum(x + bw + 4, hw), np.minimum(y + bh + 4, hh)
+    ring = max(view.smooth // 2, 1)  # the support of the 3x3 mean, or of the box filter
+    mos = Mosaic(np.stack((2 * hx0, 2 * hy0, np.minimum(2 * hx1, w), np.minimum(2 * hy1, h)), 1),
+                 view.bg_small, ring)
+    img = mos.paste(view.img, ring)
+    src = cv2.blur(img, (view.smooth, view.smooth)) if view.smooth else img
+    d = _max_channel_diff(src, mos.bg)  # (undefined between boxes: every use is masked)
+    fg = mos.open3(cv2.threshold(d, view.threshold, 255, cv2.THRESH_BINARY)[1])
+    for k, (x0, y0, x1, y1) in enumerate(mos.boxes):
+        view.fg[y0:y1, x0:x1] |= mos.window(fg, k)
+    # each blob's foreground: near its half-scale region (dilated), not a neighbour's
+    near = np.zeros((fg.shape[0] // 2, fg.shape[1] // 2), np.uint8)
+    shift = (mos.at // 2 - np.stack((hx0, hy0), 1)).tolist()
+    cv2.drawContours(near, [c + s for c, s in zip(parts, shift, strict=True)], -1, 1, -1)
+    near = cv2.resize(cv2.dilate(near, _K3), fg.shape[::-1], interpolation=cv2.INTER_NEAREST)
+    own = cv2.bitwise_and(fg, near)  # 0/1
+    level = _levels(view, mos, d, own)
+    above = cv2.compare(d, cv2.LUT(mos.label, level), cv2.CMP_GT)  # (none between boxes)
+    keep = cv2.bitwise_and(cv2.dilate(own, _K3), above)
     if not view.backlit and st.shadow_chroma > 0:  # a light table casts no shadows
-        _drop_shadow(keep, img, bg, st.shadow_chroma)
-    sub = cv2.morphologyEx(keep, cv2.MORPH_OPEN, _K3)
+        _drop_shadow(keep, img, mos.bg, st.shadow_chroma)
+    sub = mos.open3(keep)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return []
-    hr = hr[0]
-    out = []
-    labels = None
-    n_outer = int(np.count_nonzero(hr[:, 3] == -1))
-    for j, cj in enumerate(cs):
-        if hr[j][3] != -1 or len(cj) < 8:
-            continue
-        if cv2.contourArea(cj) < view.min_px / 3:
-            continue  # a fragment (at least 3 px wide after the opening) far below a part
-        pj = cj.reshape(-1, 2)
-        bx, by, bbw, bbh = cv2.boundingRect(cj)
-        bx, by = bx + x0, by + y0
-        partial = bx <= mgn or by <= mgn or bx + bbw >= w - mgn or by + bbh >= h - mgn
-        blob = make_blob(pj, cs, hr, j, (x0, y0), partial, box=(bx, by, bbw, bbh))
-        if n_outer == 1:
-            own_mask = sub
-        else:
-            if labels is None:
-                _, labels = cv2.connectedComponents(sub, connectivity=8)
-            px, py = pj[0]
-            own_mask = (labels == labels[py, px]).astype(np.uint8) * 255
-        blob.roi = (x0, y0, own_mask)  # this part's pixels only, not a neighbour's
-        out.append(blob)
-    return out
+    return blobs_of_windows(mos, sub, cs, hr[0].tolist(), view.fg.shape,
+                            view.settings.border_margin, view.min_px / 3)
+
+
+def _levels(view: FrameView, mos: Mosaic, d: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """Each box's re-threshold, as a uint8 table (256,) by box (255 beyond them): the
+    frame's threshold or ``edge_level`` times the box's median contrast (:meth:`Mosaic.
+    medians` of ``d`` over ``own``), whichever is higher, floored (``cv2.threshold``
+    compares uint8 pixels with the floor of its threshold)."""
+    med, count = mos.medians(d, own)
+    level = np.where(count > 0, np.maximum(view.threshold, view.settings.edge_level * med),
+                     view.threshold)
+    table = np.full(256, 255, np.uint8)
+    table[: len(level)] = np.minimum(np.floor(level), 255)
+    return table

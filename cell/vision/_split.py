@@ -31,6 +31,10 @@ _MIN_PAIR_MM2 = 200.0
 # Pieces of pieces (depth 2, chains of three or more) are cut along the outline only: on
 # the bench's scenes raster cores there never found a cut the outline cuts had missed.
 _CORE_DEPTH = 2
+# The most cuts one blob's search (all depths together) evaluates: the search is an anytime
+# one, the best cut found so far wins. A blob of touching parts needs a handful; a blob
+# that is no set of parts would otherwise try every cut of every piece.
+_BUDGET = 24
 
 Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint, fit
 
@@ -39,21 +43,22 @@ def split_blob(blob: Blob, view: FrameView) -> list[tuple[Blob, str, float, Fit]
     """Pieces (blob, kind, confidence, footprint) of a blob of touching parts, or [] when
     no cut gives pieces that fit their kinds (mean fit below ``_ACCEPT``), or when the
     blob is too small to hold two parts."""
-    return [p[:4] for p in _split(blob, view, 0)]
+    return [p[:4] for p in _split(blob, view, 0, [_BUDGET])]
 
 
-def _split(blob: Blob, view: FrameView, depth: int) -> list[Piece]:
-    """:func:`split_blob` at recursion ``depth``, each piece with its fit score."""
+def _split(blob: Blob, view: FrameView, depth: int, budget: list[int]) -> list[Piece]:
+    """:func:`split_blob` at recursion ``depth``, each piece with its fit score; ``budget``
+    holds how many more cuts the whole search may evaluate."""
     if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
         return []
     best: list[Piece] = []
     best_cost = math.inf
     deferred: list[list[Piece]] = []  # cuts with a piece that may split further
-    for pieces in _candidates(blob, view, depth < 2, depth < _CORE_DEPTH):
+    for pieces in _candidates(blob, view, depth < 2, depth < _CORE_DEPTH, budget):
         if pieces is None:
             continue
         if any(p[1] == "unknown" for p in pieces):  # (each may split: else _evaluate is None)
-            pieces = _split_further(pieces, view, depth, unknown_only=True)
+            pieces = _split_further(pieces, view, depth, budget, unknown_only=True)
             if not pieces:
                 continue
         cost = sum(p[4] for p in pieces) / len(pieces)
@@ -65,7 +70,7 @@ def _split(blob: Blob, view: FrameView, depth: int) -> list[Piece]:
             deferred.append(pieces)
     if best_cost >= _GOOD:
         for pieces in deferred:  # the cuts whose ill-fitting pieces may be parts touching
-            out = _split_further(pieces, view, depth)
+            out = _split_further(pieces, view, depth, budget)
             if not out:
                 continue
             cost = sum(p[4] for p in out) / len(out)
@@ -86,7 +91,7 @@ def _may_split(piece: Piece, view: FrameView) -> bool:
     return view.geo.area_mm2(piece[0]) > _MIN_PAIR_MM2
 
 
-def _split_further(pieces: list[Piece], view: FrameView, depth: int, *,
+def _split_further(pieces: list[Piece], view: FrameView, depth: int, budget: list[int], *,
                    unknown_only: bool = False) -> list[Piece]:
     """The pieces with each unknown one (and unless ``unknown_only`` each ill-fitting
     one) replaced by its own pieces; [] when an unknown piece does not split."""
@@ -95,7 +100,7 @@ def _split_further(pieces: list[Piece], view: FrameView, depth: int, *,
         if p[1] != "unknown" and (unknown_only or p[4] < _ACCEPT):
             out.append(p)
             continue
-        more = _split(p[0], view, depth + 1) if _may_split(p, view) else []
+        more = _split(p[0], view, depth + 1, budget) if _may_split(p, view) else []
         if more:
             out.extend(more)
         elif p[1] == "unknown":
@@ -105,12 +110,15 @@ def _split_further(pieces: list[Piece], view: FrameView, depth: int, *,
     return out
 
 
-def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool):
+def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budget: list[int]):
     """Evaluated cuts of a blob (lists of pieces, or None for a cut that fails), best
     guesses first: straight cuts between pairs of deep convexity defects, made on the
     outline itself (:func:`_polygon_cuts`); then cores of the distance transform, on the
     rasterised blob (:func:`_core_cuts`)."""
     for pieces in _polygon_cuts(blob, view):
+        if budget[0] <= 0:
+            return
+        budget[0] -= 1
         yield _evaluate(pieces, view, may_split)
     if not cores:
         return
@@ -124,6 +132,9 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool):
         hp = np.round(hole - 0.5 * hn).astype(np.int32)
         cv2.drawContours(roi, [hp], -1, 0, -1, offset=(-ox, -oy))
     for seeds in _core_cuts(filled):
+        if budget[0] <= 0:
+            return
+        budget[0] -= 1
         pieces = _pieces(roi, seeds, (ox, oy))
         yield None if pieces is None else _evaluate(pieces, view, may_split)
 

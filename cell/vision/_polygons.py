@@ -184,8 +184,9 @@ def _moments(pts, s, e, ox, oy):  # pragma: no cover (compiled)
 def _hull(px, py):  # pragma: no cover (compiled)
     """Convex hull (counter-clockwise, no collinear points) by Andrew's monotone chain."""
     n = px.shape[0]
-    order = np.argsort(py, kind="mergesort")
-    order = order[np.argsort(px[order], kind="mergesort")]  # by x, then y
+    # by x, then y: the key's y term (points lie within metres, in mm) is far below any
+    # difference of x between distinct points and far above float64's resolution of x
+    order = np.argsort(px + 1e-9 * py)
     h = np.empty(2 * n + 1, np.int64)
     k = 0
     for j in range(n):  # lower hull
@@ -209,35 +210,71 @@ def _hull(px, py):  # pragma: no cover (compiled)
 @njit(cache=True)
 def _hull_shape(hx, hy):  # pragma: no cover (compiled)
     """(area, rectangle side along the best edge, the other side, that edge's angle,
-    six-fold facet strength) of a convex polygon (counter-clockwise)."""
+    six-fold facet strength) of a convex polygon (counter-clockwise, no repeated points).
+
+    The rectangle by rotating calipers (Toussaint, *Solving geometric problems with the
+    rotating calipers*, 1983): for each edge the farthest points ahead, behind and across
+    are found by moving three pointers forward, each once around the polygon."""
     m = hx.shape[0]
-    area = 0.0
-    best = np.inf
-    w_best = h_best = ang_best = 0.0
-    total = re6 = im6 = 0.0
+    if m < 3:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    area = total = re6 = im6 = 0.0
     for i in range(m):
         j = i + 1 if i + 1 < m else 0
         dx, dy = hx[j] - hx[i], hy[j] - hy[i]
         area += hx[i] * hy[j] - hx[j] * hy[i]
         length = math.sqrt(dx * dx + dy * dy)
+        if length > 0.0:
+            u2 = complex(dx / length, dy / length) ** 2  # the direction's 6th power
+            u6 = u2 * u2 * u2
+            total += length
+            re6 += length * u6.real
+            im6 += length * u6.imag
+    facets = math.sqrt(re6 * re6 + im6 * im6) / total if total > 0.0 else 0.0
+    best = np.inf
+    w_best = h_best = ang_best = 0.0
+    ahead = across = behind = -1
+    for i in range(m):
+        j = i + 1 if i + 1 < m else 0
+        dx, dy = hx[j] - hx[i], hy[j] - hy[i]
+        length = math.sqrt(dx * dx + dy * dy)
         if length <= 0.0:
             continue
         ux, uy = dx / length, dy / length
-        theta = math.atan2(uy, ux)
-        total += length
-        re6 += length * math.cos(6.0 * theta)
-        im6 += length * math.sin(6.0 * theta)
-        smin = smax = tmin = tmax = 0.0
-        for q in range(m):
-            rx, ry = hx[q] - hx[i], hy[q] - hy[i]
-            s = rx * ux + ry * uy
-            t = -rx * uy + ry * ux
-            smin, smax = min(smin, s), max(smax, s)
-            tmin, tmax = min(tmin, t), max(tmax, t)
-        a = (smax - smin) * (tmax - tmin)
-        if a < best:
-            best, w_best, h_best, ang_best = a, smax - smin, tmax - tmin, theta
-    facets = math.sqrt(re6 * re6 + im6 * im6) / total if (total > 0.0 and m >= 3) else 0.0
+        if ahead < 0:  # first edge: find the three extremes by a scan
+            ahead = across = behind = j
+            for q in range(m):
+                s = (hx[q] - hx[i]) * ux + (hy[q] - hy[i]) * uy
+                t = -(hx[q] - hx[i]) * uy + (hy[q] - hy[i]) * ux
+                if s > (hx[ahead] - hx[i]) * ux + (hy[ahead] - hy[i]) * uy:
+                    ahead = q
+                if t > -(hx[across] - hx[i]) * uy + (hy[across] - hy[i]) * ux:
+                    across = q
+                if s < (hx[behind] - hx[i]) * ux + (hy[behind] - hy[i]) * uy:
+                    behind = q
+        else:
+            for _ in range(m):  # each pointer moves forward while that improves it
+                nx = ahead + 1 if ahead + 1 < m else 0
+                if (hx[nx] - hx[ahead]) * ux + (hy[nx] - hy[ahead]) * uy > 0:
+                    ahead = nx
+                else:
+                    break
+            for _ in range(m):
+                nx = across + 1 if across + 1 < m else 0
+                if -(hx[nx] - hx[across]) * uy + (hy[nx] - hy[across]) * ux > 0:
+                    across = nx
+                else:
+                    break
+            for _ in range(m):
+                nx = behind + 1 if behind + 1 < m else 0
+                if (hx[nx] - hx[behind]) * ux + (hy[nx] - hy[behind]) * uy < 0:
+                    behind = nx
+                else:
+                    break
+        w = ((hx[ahead] - hx[behind]) * ux + (hy[ahead] - hy[behind]) * uy)
+        h = -(hx[across] - hx[i]) * uy + (hy[across] - hy[i]) * ux
+        if w * h < best:
+            best, w_best, h_best, ang_best = w * h, w, h, math.atan2(uy, ux)
     return abs(area) / 2.0, w_best, h_best, ang_best, facets
 
 

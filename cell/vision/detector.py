@@ -136,13 +136,13 @@ class PartDetector:
 
     def _geometry(self, camera: CameraModel) -> Geometry:
         """The camera's ray geometry, kept while frames come from an equal camera model."""
-        key = (camera.K, camera.dist, camera.T_world_camera)
+        key = b"".join(np.asarray(a, dtype=np.float64).tobytes()
+                       for a in (camera.K, camera.dist, camera.T_world_camera))
         cached = getattr(self, "_geo", None)
-        if cached is not None and all(np.array_equal(a, b) for a, b in zip(cached[0], key,
-                                                                          strict=True)):
+        if cached is not None and cached[0] == key:
             return cached[1]
         geo = Geometry(camera, self.settings.plane_z)
-        self._geo = (tuple(np.array(a, copy=True) for a in key), geo)
+        self._geo = (key, geo)
         return geo
 
     def _interpret(self, blob: Blob, fitted: tuple[str, float, float, Fit],

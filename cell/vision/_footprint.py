@@ -44,6 +44,7 @@ _REFINE_GAP = 12.0  # a runner-up kind this much worse at mid height is not refi
 class Fit:
     fp: Footprint | None  # the footprint of the kind chosen (mid height if none)
     centroid_px: tuple[float, float] = (0.0, 0.0)  # the blob's pixel centroid (u, v)
+    cut: int = 0  # the outline's last points that are a cut from a touching part, not an edge
 
 
 class Geometry:

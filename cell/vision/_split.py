@@ -115,11 +115,11 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
     guesses first: straight cuts between pairs of deep convexity defects, made on the
     outline itself (:func:`_polygon_cuts`); then cores of the distance transform, on the
     rasterised blob (:func:`_core_cuts`)."""
-    for pieces in _polygon_cuts(blob, view):
+    for pieces, cut in _polygon_cuts(blob, view):
         if budget[0] <= 0:
             return
         budget[0] -= 1
-        yield _evaluate(pieces, view, may_split)
+        yield _evaluate(pieces, view, may_split, cut)
     if not cores:
         return
     x, y, bw, bh = blob.mask_box
@@ -190,7 +190,7 @@ def _polygon_cuts(blob: Blob, view: FrameView):
                   _sub_blob(blob, (slice(fj, n), slice(0, fi + 1)), cut[::-1], -out, rays[::-1],
                             ~away[::-1])]
         if all(p is not None for p in pieces):
-            yield pieces
+            yield pieces, len(cut)
 
 
 def _sub_blob(blob: Blob, runs: tuple[slice, ...], cut: np.ndarray, cut_normals: np.ndarray,
@@ -264,12 +264,14 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list
     return subs
 
 
-def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece] | None:
+def _evaluate(subs: list[Blob], view: FrameView, may_split: bool,
+              cut: int = 0) -> list[Piece] | None:
     """Each piece with its best kind; None when a piece fits no kind and cannot be split
-    further."""
+    further. ``cut``: each piece's outline ends with that many points of a straight cut."""
     out: list[Piece] = []
     for sub, (kind, conf, fit, res) in zip(
             subs, fit_kinds(subs, view.geo, view.settings.min_kind_confidence), strict=True):
+        res.cut = cut
         p = (sub, kind, conf, res, fit)
         if kind == "unknown" and not (may_split and _may_split(p, view)):
             return None

@@ -184,7 +184,7 @@ class PartDetector:
 def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
     fp = res.fp
     sym = KINDS[kind].symmetry if kind in KINDS else 0
-    yaw = footprint_yaw(fp, kind) if (fp is not None and kind in KINDS) else 0.0
+    yaw = footprint_yaw(fp, kind, cut=res.cut) if (fp is not None and kind in KINDS) else 0.0
     position = None
     if not blob.partial and fp is not None:
         c = bolt_origin(fp) if kind == "bolt" else fp.centroid

@@ -236,7 +236,7 @@ def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:
 
 
 def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.0,
-                iterations: int = 0) -> float:
+                iterations: int = 0, cut: int = 0) -> float:
     """Direction (rad) of the flats' normals of an n-fold polygonal outline, mod 2*pi/n.
 
     The n-th circular harmonic of the outline's chord directions (chords of ``step``
@@ -250,17 +250,29 @@ def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.
     stretches of a noisy outline, far from the flats' direction, count less.
     """
     p = np.ascontiguousarray(outline, dtype=np.float64)
-    return _flat_angle_kernel(p, n, step, kappa, iterations)
+    # chords over the last ``cut`` points (a straight cut between touching parts, not an
+    # edge) and _CUT_GUARD points either side of it are left out
+    skip = min(cut + 2 * _CUT_GUARD, len(p) // 2) if cut else 0
+    return _flat_angle_kernel(p, n, step, kappa, iterations, len(p) - cut - _CUT_GUARD, skip)
+
+
+_CUT_GUARD = 6  # outline points next to a cut left out of the yaw (the contact's notch)
 
 
 @njit(cache=True)
-def _flat_angle_kernel(p, n, step, kappa, iterations):  # pragma: no cover (compiled)
+def _flat_angle_kernel(p, n, step, kappa, iterations, skip_from, skip):  # pragma: no cover
     m = p.shape[0]
     e = np.empty(m, np.complex128)  # exp(i * n * psi) of each chord p[k + step] - p[k]
     length = np.empty(m)
     mean = 0j
     for k in range(m):
         j = (k + step) % m
+        # a chord spanning any of the skip points from skip_from on (cyclically) is left out
+        r = (k - skip_from) % m
+        if skip > 0 and (r < skip or r >= m - step):
+            length[k] = 0.0
+            e[k] = 0j
+            continue
         dx, dy = p[j, 0] - p[k, 0], p[j, 1] - p[k, 1]
         length[k] = math.sqrt(dx * dx + dy * dy)
         u = complex(dx, dy) / max(length[k], 1e-300)
@@ -307,8 +319,11 @@ def _l_bracket_yaw(fp: Footprint) -> float:
     return float(math.atan2(long_dir[1], long_dir[0]))
 
 
-def footprint_yaw(fp: Footprint, kind: str) -> float:
+def footprint_yaw(fp: Footprint, kind: str, *, cut: int = 0) -> float:
     """Yaw of a footprint (rad) for a kind, in [0, 2*pi/symmetry) (0 for continuous symmetry).
+
+    ``cut``: the outline's last ``cut`` points are a straight cut that separated this part
+    from one it touched, not an edge: the nuts' flat directions leave them out.
 
     Hex nut: the flats' direction from the 6th harmonic of the outline's chord directions
     (yaw 0: a corner on +x); square nut: the 4th (yaw 0: flats facing +x); bolt: the long
@@ -320,10 +335,10 @@ def footprint_yaw(fp: Footprint, kind: str) -> float:
     if n == 0:
         return 0.0
     if kind == "hex_nut":
-        yaw = _flat_angle(fp.outline, 6) - math.pi / 6  # yaw 0: corners at 0, 60, ... deg
+        yaw = _flat_angle(fp.outline, 6, cut=cut) - math.pi / 6  # yaw 0: a corner on +x
     elif kind == "square_nut":
         # yaw 0: flats facing +x; reweighted (tune seeds: raking/dim yaw p95 -0.3 deg)
-        yaw = _flat_angle(fp.outline, 4, kappa=2.0, iterations=2)
+        yaw = _flat_angle(fp.outline, 4, kappa=2.0, iterations=2, cut=cut)
     elif kind == "bolt":
         yaw = _second_moment_angle(fp.outline)
     elif kind == "l_bracket":

@@ -146,3 +146,28 @@ def test_l_bracket_yaw_is_not_turned_by_a_bulge_on_one_side():
     assert rect_err > 2.0  # the rectangle is turned by the wedge...
     e = (footprint_yaw(fp, "l_bracket") - yaw) % (2 * math.pi)
     assert math.degrees(min(e, 2 * math.pi - e)) < 0.5 * rect_err  # ...the yaw much less
+
+
+def test_nut_yaw_leaves_out_the_cut_from_a_touching_part():
+    """A square nut whose outline lost a corner to a straight cut (where it touched another
+    part): told where the cut is, the yaw ignores it; not told, the cut's slant turns it."""
+    yaw = 0.3
+    ring = _turn(_ring("square", 0.0065, n=240), yaw)
+    # cut a slice off one side with a chord 20 deg off the flats, sampled like a traced edge
+    d = np.array([math.cos(yaw + math.radians(20)), math.sin(yaw + math.radians(20))])
+    keep = (ring - np.array([0.3, 0.45])) @ d < 0.004
+    start = int(np.argmin(keep))  # first point removed
+    ring = np.roll(ring, -start, axis=0)
+    keep = np.roll(keep, -start)
+    kept = ring[keep]
+    cut = np.linspace(kept[-1], kept[0], 30)[1:-1]
+    outline = np.concatenate([kept, cut])
+    fp = footprint(outline, [_turn(h, yaw) for h in OUTLINES["square_nut"][1]])
+    period = math.pi / 2
+
+    def err(y):
+        e = (y - yaw) % period
+        return math.degrees(min(e, period - e))
+
+    assert err(footprint_yaw(fp, "square_nut", cut=len(cut))) < 0.3
+    assert err(footprint_yaw(fp, "square_nut")) > 2 * err(footprint_yaw(fp, "square_nut", cut=len(cut)))

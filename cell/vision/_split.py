@@ -35,18 +35,27 @@ _CORE_DEPTH = 2
 # one, the best cut found so far wins. A blob of touching parts needs a handful; a blob
 # that is no set of parts would otherwise try every cut of every piece.
 _BUDGET = 24
+# A blob that fits one kind poorly (fit >= 9) is still cut when the cut's pieces fit
+# this much better on average, up to a mean fit of _POOR (dim frames blur every outline).
+_BETTER = 2.0
+_POOR = 13.0
 
 Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint, fit
 
 
-def split_blob(blob: Blob, view: FrameView) -> list[tuple[Blob, str, float, Fit]]:
+def split_blob(blob: Blob, view: FrameView, *,
+               whole_fit: float = math.inf) -> list[tuple[Blob, str, float, Fit]]:
     """Pieces (blob, kind, confidence, footprint) of a blob of touching parts, or [] when
     no cut gives pieces that fit their kinds (mean fit below ``_ACCEPT``), or when the
     blob is too small to hold two parts."""
-    return [p[:4] for p in _split(blob, view, 0, [_BUDGET])]
+    limit = _ACCEPT
+    if math.isfinite(whole_fit):  # the whole blob fits a kind, poorly: a clearly better cut wins
+        limit = max(_ACCEPT, min(whole_fit - _BETTER, _POOR))
+    return [p[:4] for p in _split(blob, view, 0, [_BUDGET], limit)]
 
 
-def _split(blob: Blob, view: FrameView, depth: int, budget: list[int]) -> list[Piece]:
+def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
+           limit: float = _ACCEPT) -> list[Piece]:
     """:func:`split_blob` at recursion ``depth``, each piece with its fit score; ``budget``
     holds how many more cuts the whole search may evaluate."""
     if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
@@ -78,7 +87,7 @@ def _split(blob: Blob, view: FrameView, depth: int, budget: list[int]) -> list[P
                 best, best_cost = out, cost
             if best_cost < _GOOD:
                 break
-    if best_cost >= _ACCEPT:
+    if best_cost >= limit:
         return []
     for p in best:
         p[3].centroid_px = px_centroid(p[0])

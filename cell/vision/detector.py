@@ -31,6 +31,7 @@ Pipeline (each step a textbook technique, each in its own module):
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -156,7 +157,7 @@ class PartDetector:
             return [(blob, kind, conf, res)]
         area_mm2 = geo.area_mm2(blob)
         if st.split_touching and area_mm2 > 1.5 * st.min_area_mm2:
-            pieces = split_blob(blob, view)
+            pieces = split_blob(blob, view, whole_fit=fit if kind != "unknown" else math.inf)
             if pieces:
                 return pieces
         if kind == "unknown" or area_mm2 > st.max_area_mm2:

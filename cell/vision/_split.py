@@ -166,15 +166,14 @@ def _polygon_cuts(blob: Blob, view: FrameView):
         return
     if defects is None:
         return
-    d = defects[:, 0]
-    d = d[d[:, 3] >= 2.5 * 256]
-    d = d[np.argsort(-d[:, 3], kind="stable")][:6]
-    deep = [(float(di) / 256.0, int(fi)) for _, _, fi, di in d]
+    deep = sorted(((fi, di) for _, _, fi, di in defects[:, 0].tolist() if di >= 2.5 * 256),
+                  key=lambda r: -r[1])[:6]  # the six deepest (stable: ties keep outline order)
+    pts = outline.tolist()
     pairs = []
     for i in range(len(deep)):
         for j in range(i + 1, len(deep)):
-            (di, fi), (dj, fj) = deep[i], deep[j]
-            pairs.append((math.dist(outline[fi], outline[fj]) / (di + dj), min(fi, fj), max(fi, fj)))
+            (fi, di), (fj, dj) = deep[i], deep[j]
+            pairs.append((math.dist(pts[fi], pts[fj]) / ((di + dj) / 256.0), min(fi, fj), max(fi, fj)))
     pairs.sort()
     view.geo.prepare([blob])
     n = len(outline)
@@ -182,18 +181,20 @@ def _polygon_cuts(blob: Blob, view: FrameView):
     # which side of the direction of travel the outward normals lie on (+1: left turn)
     side = 1.0 if (c[1, 0] - c[0, 0]) * nr[0, 1] - (c[1, 1] - c[0, 1]) * nr[0, 0] > 0 else -1.0
     for _, fi, fj in pairs[:6]:
-        mid = (outline[fi] + outline[fj]) / 2.0
         if fj - fi < 8 or n - (fj - fi) < 8:
             continue
-        if cv2.pointPolygonTest(outline, (float(mid[0]), float(mid[1])), False) < 0:
+        mid = ((pts[fi][0] + pts[fj][0]) / 2.0, (pts[fi][1] + pts[fj][1]) / 2.0)
+        if cv2.pointPolygonTest(outline, mid, False) < 0:
             continue  # the cut runs outside the blob
         # the cut from point fj back to fi, sampled every pixel as a traced boundary is
         # (so its chords weigh in the yaw as much as a traced edge of its length)
-        a, b = c[fj], c[fi]
-        steps = max(int(math.hypot(*(b - a))), 1)
-        cut = a + (np.arange(1, steps) / steps)[:, None] * (b - a)
-        d = (b - a) / max(math.hypot(*(b - a)), 1e-9)
-        out = np.tile(side * np.array([-d[1], d[0]]), (len(cut), 1))
+        (ax, ay), (bx, by) = c[fj].tolist(), c[fi].tolist()
+        length = max(math.hypot(bx - ax, by - ay), 1e-9)
+        steps = max(int(length), 1)
+        cut = np.linspace((ax, ay), (bx, by), steps + 1)[1:-1]
+        out = np.empty_like(cut)
+        out[:, 0] = -side * (by - ay) / length
+        out[:, 1] = side * (bx - ax) / length
         rays, away = view.geo.plane_rays(cut, out)
         pieces = [_sub_blob(blob, (slice(fi, fj + 1),), cut, out, rays, away),
                   _sub_blob(blob, (slice(fj, n), slice(0, fi + 1)), cut[::-1], -out, rays[::-1],

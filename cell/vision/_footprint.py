@@ -11,6 +11,7 @@ only for the best one or two kinds, with their own edge heights.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -42,9 +43,19 @@ _REFINE_GAP = 12.0  # a runner-up kind this much worse at mid height is not refi
 
 @dataclass
 class Fit:
-    fp: Footprint | None  # the footprint of the kind chosen (mid height if none)
-    centroid_px: tuple[float, float] = (0.0, 0.0)  # the blob's pixel centroid (u, v)
-    cut: int = 0  # the outline's last points that are a cut from a touching part, not an edge
+    """The footprint of the kind chosen for a blob (mid height if none), built on first
+    use (``source``: a function that builds it), the blob's pixel centroid (u, v), and how
+    many of the outline's last points are a cut from a touching part, not an edge."""
+
+    source: object  # Footprint | None, or a function returning one
+    centroid_px: tuple[float, float] = (0.0, 0.0)
+    cut: int = 0
+
+    @property
+    def fp(self) -> Footprint | None:
+        if callable(self.source):
+            self.source = self.source()
+        return self.source
 
 
 class Geometry:
@@ -170,7 +181,7 @@ def fit_kinds(blobs: list[Blob], geo: Geometry,
         outline = xy[starts[p] : starts[p + 1]]
         holes = tuple(xy[starts[q] : starts[q + 1]] for q in range(p + 1, p + m))
         p += m
-        res = Fit(footprint_of(d, i, outline, holes))
+        res = Fit(functools.partial(footprint_of, d, i, outline, holes))
         out.append(("unknown" if k < 0 else KIND_NAMES[k], c, f, res))
     return out
 

@@ -22,7 +22,7 @@ from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.vision._blob import Blob
 from cell.vision._kindfit import fit_blobs
-from cell.vision._polygons import as_set, plane_footprints, plane_rays
+from cell.vision._polygons import as_set, plane_footprints, plane_rays, polygon_area
 from cell.vision.kind import (
     KIND_NAMES,
     MAX_FIT,
@@ -114,8 +114,9 @@ class Geometry:
     def area_mm2(self, blob: Blob) -> float:
         """The blob's area (outline minus holes) scaled to the table plane at the image
         centre (mm^2)."""
-        a = abs(cv2.contourArea(blob.contour.astype(np.float32)))
-        a -= sum(abs(cv2.contourArea(h.astype(np.float32))) for h, _ in blob.holes)
+        a = polygon_area(blob.contour)
+        for h, _ in blob.holes:
+            a -= polygon_area(h)
         return a * (self.m_per_px * 1e3) ** 2
 
 
@@ -240,3 +241,4 @@ def warm_up() -> None:
         blob = Blob(ring, normals, [(0.5 * ring + 160, -normals)], (300, 220, 41, 41), False)
         fit_kinds([blob], geo, 0.5)
         Footprints(geo, [blob], _MID).footprint(0)
+        geo.area_mm2(blob)

@@ -166,6 +166,18 @@ def _rays(uv, norm, normals, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir
 
 
 @njit(cache=True)
+def polygon_area(pts):  # pragma: no cover (compiled)
+    """Unsigned area of the polygon ``pts`` (N, 2) (shoelace formula, as
+    ``cv2.contourArea``), in its units squared."""
+    a = 0.0
+    n = pts.shape[0]
+    for k in range(n):
+        j = k + 1 if k + 1 < n else 0
+        a += pts[k, 0] * pts[j, 1] - pts[j, 0] * pts[k, 1]
+    return abs(a) / 2.0
+
+
+@njit(cache=True)
 def _moments(pts, s, e, ox, oy):  # pragma: no cover (compiled)
     """Signed area and first moments (mm^2, mm^3) of polygon pts[s:e] around (ox, oy)."""
     m00 = m10 = m01 = 0.0

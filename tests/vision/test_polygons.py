@@ -15,7 +15,7 @@ from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.vision._blob import Blob, outline_normals
 from cell.vision._footprint import Geometry, fit_kinds
-from cell.vision._polygons import describe_polygons, plane_rays
+from cell.vision._polygons import describe_polygons, plane_rays, polygon_area
 from cell.vision.kind import classify_kind, footprint, score_kind
 from tests.vision.test_kind import OUTLINES, _turn  # the exact catalogue outlines
 
@@ -61,6 +61,7 @@ def test_descriptors_match_opencv(rs, turn, with_hole):
     assert np.ptp(along) <= d.length[0] + 1e-9 and np.ptp(across) <= d.width[0] + 1e-9
     hull_area = cv2.contourArea(cv2.convexHull(mm))
     assert d.solidity[0] == pytest.approx(area / hull_area, rel=1e-4)
+    assert polygon_area(mm.astype(np.float64)) == pytest.approx(cv2.contourArea(mm), rel=1e-6)
 
 
 def test_rectangle_angle_and_facets():

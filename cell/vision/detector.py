@@ -13,20 +13,25 @@ Pipeline (each step a textbook technique, each in its own module):
    (median + k * MAD, with a floor), or fixed or Otsu; an opening removes specks; a
    frame whose background is a bright light table is taken as back-lit
    (:mod:`cell.vision._segment`);
-2. contours with holes; each blob is refined at full scale in its own box only:
-   re-thresholded at a fraction (``edge_level``) of its own contrast, shadow pixels
-   (darker than the background by one factor in all channels) dropped;
+2. contours with holes; every blob is refined at full scale in its own box, all boxes
+   at once on one mosaic (:mod:`cell.vision._mosaic`): re-thresholded at a fraction
+   (``edge_level``) of its own contrast, shadow pixels (darker than the background by
+   one factor in all channels) dropped;
 3. the outline is mapped onto the table plane: a contour point whose outward normal faces
    away from the camera's nadir is a top edge, the others bottom edges (a prism seen
    off-axis shows a wall), so the footprint is free of perspective; the kind is chosen
-   on a mid-height footprint and the outline mapped again only for the best kind(s)
-   (:mod:`cell.vision._footprint`, :mod:`cell.vision.kind`);
-4. a blob that fits no kind is cut into touching parts (convexity-defect cuts,
-   distance-transform cores), recursively (:mod:`cell.vision._split`);
-5. material from grain and white-balanced albedo (:mod:`cell.vision.material`); yaw per
-   kind modulo its symmetry; position the footprint centroid on the table plane (for a
-   bolt, a point fixed relative to its two ends). A blob at the image border is reported
-   ``partial`` with kind ``unknown`` and no position.
+   on a mid-height footprint and the outline mapped again only for the best kind(s);
+   every blob of the frame in one compiled pass (:mod:`cell.vision._footprint`,
+   :mod:`cell.vision._kindfit`, :mod:`cell.vision._polygons`, :mod:`cell.vision.kind`);
+4. a blob that fits no kind (or one poorly) is cut into touching parts: straight cuts
+   between convexity defects made on the outline itself, then distance-transform cores,
+   recursively, within a budget of cuts (:mod:`cell.vision._split`);
+5. material from grain and white-balanced albedo, every part of the frame at once
+   (:mod:`cell.vision._part_material`, :mod:`cell.vision.material`); yaw per kind modulo
+   its symmetry (a cut between touching parts is not an edge and does not count);
+   position the footprint centroid on the table plane (for a bolt, a point fixed
+   relative to its two ends). A blob at the image border is reported ``partial`` with
+   kind ``unknown`` and no position.
 """
 
 from __future__ import annotations

@@ -165,12 +165,23 @@ def fit_kinds(blobs: list[Blob], geo: Geometry,
     geo.prepare(blobs)
     rays, away, splits = _concatenated(blobs)
     counts = np.array([1 + len(b.holes) for b in blobs])
-    n = len(blobs)
-    xy = np.empty((len(rays), 2))
+    return fit_gathered(geo, rays, away, np.arange(len(rays)), splits, counts, min_confidence)
+
+
+def fit_gathered(geo: Geometry, rays: np.ndarray, away: np.ndarray, idx: np.ndarray,
+                 splits: np.ndarray, counts: np.ndarray,
+                 min_confidence: float) -> list[tuple[str, float, float, Fit]]:
+    """:func:`fit_kinds` of footprints whose points are gathered from shared arrays: the
+    footprints' points, one after the other, are ``rays[idx]``/``away[idx]`` (per-drop
+    rays and top-edge flags, as ``Geometry.prepare`` leaves on a blob), ``splits`` their
+    cumulative polygon sizes and ``counts`` how many polygons each has (outline + holes).
+    Lets the split stage fit the pieces of a cut without building them."""
+    n = len(counts)
+    xy = np.empty((len(idx), 2))
     starts = np.empty(len(splits) + 1, np.int64)
     table = np.empty((n, 10))
     kind, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    fit_blobs(rays, away, splits, counts, float(geo.o[0]), float(geo.o[1]),
+    fit_blobs(rays, away, idx, splits, counts, float(geo.o[0]), float(geo.o[1]),
               float(geo.plane_z - geo.o[2]), _MID, _EDGE_LO, _EDGE_HI, _BOLT,
               KINDS["bolt"].height, *SCORING, MAX_FIT, _ROUGH_HOPELESS, _REFINE_GAP,
               min_confidence, xy, starts, table, kind, conf, fit)

@@ -73,11 +73,12 @@ def _classify(row, max_fit):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _map(rays, away, s, e, lo, hi, ox, oy, drop, buf):  # pragma: no cover (compiled)
+def _map(rays, away, idx, s, e, lo, hi, ox, oy, drop, buf):  # pragma: no cover (compiled)
     for q in range(s, e):
-        h = hi[q - s] if away[q] else lo[q - s]
-        buf[q - s, 0] = ox + (drop + h) * rays[q, 0]
-        buf[q - s, 1] = oy + (drop + h) * rays[q, 1]
+        g = idx[q]
+        h = hi[q - s] if away[g] else lo[q - s]
+        buf[q - s, 0] = ox + (drop + h) * rays[g, 0]
+        buf[q - s, 1] = oy + (drop + h) * rays[g, 1]
 
 
 @njit(cache=True)
@@ -108,17 +109,16 @@ def _bolt_heights(xy, row, height, lo, hi):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def fit_blobs(rays, away, splits, counts, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+def fit_blobs(rays, away, idx, splits, counts, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
               bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
               hopeless, gap, min_conf, xy, starts, table, kind, conf, fit):  # pragma: no cover
-    """Fit every blob (points ``rays``/``away`` as in ``plane_footprints``); writes the
-    chosen footprint's points into ``xy``, its polygon starts into ``starts``, its
-    descriptors into ``table``, and kind (-1: unknown), confidence and fit."""
-    n_kinds = nominal.shape[0]
+    """Fit every blob; the blobs' points, one after the other (as in ``plane_footprints``),
+    are ``rays[idx]``/``away[idx]``. Writes the chosen footprint's points into ``xy``,
+    its polygon starts into ``starts``, its descriptors into ``table``, and kind (-1:
+    unknown), confidence and fit."""
     p = 0
     k0 = 0
     starts[0] = 0
-    rough = np.empty(n_kinds)
     for i in range(counts.shape[0]):
         m = counts[i]
         k1 = k0 + splits[p + m - 1]
@@ -127,53 +127,65 @@ def fit_blobs(rays, away, splits, counts, ox, oy, drop, mid, edge_lo, edge_hi, b
         for j in range(m):
             local[j + 1] = splits[p + j]
             starts[p + j + 1] = k0 + splits[p + j]
-        n_pts = k1 - k0
-        lo = np.full(n_pts, mid)
-        hi = np.full(n_pts, mid)
-        mid_xy = np.empty((n_pts, 2))
-        _map(rays, away, k0, k1, lo, hi, ox, oy, drop, mid_xy)
-        mid_row = np.empty(10)
-        describe_one(mid_xy, local, mid_row)
-        for k in range(n_kinds):
-            rough[k] = _score(mid_row, k, nominal, sigmas, round_, round_facets, faceted, facet_w)
-        a = 0
-        for k in range(1, n_kinds):
-            if rough[k] < rough[a]:
-                a = k
-        b = 1 if a == 0 else 0
-        for k in range(n_kinds):
-            if k != a and rough[k] < rough[b]:
-                b = k
-        chosen_xy, chosen_row = mid_xy, mid_row
-        if rough[a] > hopeless:
-            kind[i], conf[i], fit[i] = -1, 0.0, np.inf
-        else:
-            tried = (a, b) if rough[b] <= rough[a] + gap else (a, -1)
-            ref_xy = np.empty((2, n_pts, 2))
-            ref_row = np.empty((2, 10))
-            for r in range(2):
-                k = tried[r]
-                if k < 0:
-                    continue
-                if k == bolt:
-                    _bolt_heights(mid_xy, mid_row, bolt_height, lo, hi)
-                else:
-                    lo[:] = edge_lo[k]
-                    hi[:] = edge_hi[k]
-                _map(rays, away, k0, k1, lo, hi, ox, oy, drop, ref_xy[r])
-                describe_one(ref_xy[r], local, ref_row[r])
-                rough[k] = _score(ref_row[r], k, nominal, sigmas, round_, round_facets,
-                                  faceted, facet_w)
-            best, c, f = _classify(rough, max_fit)
-            conf[i], fit[i] = c, f
-            if best < 0 or c < min_conf:
-                kind[i] = -1
-            else:
-                kind[i] = best
-                for r in range(2):
-                    if tried[r] == best:
-                        chosen_xy, chosen_row = ref_xy[r], ref_row[r]
-        xy[k0:k1] = chosen_xy
-        table[i] = chosen_row
+        kind[i], conf[i], fit[i] = fit_one(
+            rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+            bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
+            hopeless, gap, min_conf, xy[k0:k1], table[i])
         p += m
         k0 = k1
+
+
+@njit(cache=True)
+def fit_one(rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+            bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
+            hopeless, gap, min_conf, xy, row):  # pragma: no cover (compiled)
+    """(kind or -1, confidence, fit) of the footprint of points ``idx[k0:k1]`` of
+    ``rays``/``away`` (polygons at ``local``, relative); writes the chosen footprint's
+    points into ``xy`` and its descriptors into ``row``."""
+    n_kinds = nominal.shape[0]
+    rough = np.empty(n_kinds)
+    n_pts = k1 - k0
+    lo = np.full(n_pts, mid)
+    hi = np.full(n_pts, mid)
+    mid_xy = np.empty((n_pts, 2))
+    _map(rays, away, idx, k0, k1, lo, hi, ox, oy, drop, mid_xy)
+    mid_row = np.empty(10)
+    describe_one(mid_xy, local, mid_row)
+    for k in range(n_kinds):
+        rough[k] = _score(mid_row, k, nominal, sigmas, round_, round_facets, faceted, facet_w)
+    a = 0
+    for k in range(1, n_kinds):
+        if rough[k] < rough[a]:
+            a = k
+    b = 1 if a == 0 else 0
+    for k in range(n_kinds):
+        if k != a and rough[k] < rough[b]:
+            b = k
+    xy[:] = mid_xy
+    row[:] = mid_row
+    if rough[a] > hopeless:
+        return -1, 0.0, np.inf
+    tried = (a, b) if rough[b] <= rough[a] + gap else (a, -1)
+    ref_xy = np.empty((2, n_pts, 2))
+    ref_row = np.empty((2, 10))
+    for r in range(2):
+        k = tried[r]
+        if k < 0:
+            continue
+        if k == bolt:
+            _bolt_heights(mid_xy, mid_row, bolt_height, lo, hi)
+        else:
+            lo[:] = edge_lo[k]
+            hi[:] = edge_hi[k]
+        _map(rays, away, idx, k0, k1, lo, hi, ox, oy, drop, ref_xy[r])
+        describe_one(ref_xy[r], local, ref_row[r])
+        rough[k] = _score(ref_row[r], k, nominal, sigmas, round_, round_facets,
+                          faceted, facet_w)
+    best, c, f = _classify(rough, max_fit)
+    if best < 0 or c < min_conf:
+        return -1, c, f
+    for r in range(2):
+        if tried[r] == best:
+            xy[:] = ref_xy[r]
+            row[:] = ref_row[r]
+    return best, c, f

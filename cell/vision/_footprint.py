@@ -22,7 +22,7 @@ from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.vision._blob import Blob
 from cell.vision._kindfit import fit_blobs
-from cell.vision._polygons import as_set, plane_footprints, plane_rays, polygon_area
+from cell.vision._polygons import plane_footprints, plane_rays, polygon_area
 from cell.vision.kind import (
     KIND_NAMES,
     MAX_FIT,
@@ -139,7 +139,7 @@ class Footprints:
         """Blob ``i``'s footprint."""
         p, st = self.outlines[i], self.starts
         holes = tuple(self.xy[st[q] : st[q + 1]] for q in range(p + 1, p + 1 + self.holes[i]))
-        return footprint_of(self.d, i, self.xy[st[p] : st[p + 1]], holes)
+        return footprint_of(self.d.table[i], self.xy[st[p] : st[p + 1]], holes)
 
 
 def _concatenated(blobs: list[Blob]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -181,11 +181,8 @@ def fit_gathered(geo: Geometry, rays: np.ndarray, away: np.ndarray, idx: np.ndar
     starts = np.empty(len(splits) + 1, np.int64)
     table = np.empty((n, 10))
     kind, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    fit_blobs(rays, away, idx, splits, counts, float(geo.o[0]), float(geo.o[1]),
-              float(geo.plane_z - geo.o[2]), _MID, _EDGE_LO, _EDGE_HI, _BOLT,
-              KINDS["bolt"].height, *SCORING, MAX_FIT, _ROUGH_HOPELESS, _REFINE_GAP,
-              min_confidence, xy, starts, table, kind, conf, fit)
-    d = as_set(table)
+    fit_blobs(rays, away, idx, splits, counts, *fit_arguments(geo, min_confidence), xy,
+              starts, table, kind, conf, fit)
     out = []
     p = 0
     for i, (k, c, f) in enumerate(zip(kind.tolist(), conf.tolist(), fit.tolist(), strict=True)):
@@ -193,9 +190,25 @@ def fit_gathered(geo: Geometry, rays: np.ndarray, away: np.ndarray, idx: np.ndar
         outline = xy[starts[p] : starts[p + 1]]
         holes = tuple(xy[starts[q] : starts[q + 1]] for q in range(p + 1, p + m))
         p += m
-        res = Fit(functools.partial(footprint_of, d, i, outline, holes))
+        res = Fit(functools.partial(footprint_of, table[i], outline, holes))
         out.append(("unknown" if k < 0 else KIND_NAMES[k], c, f, res))
     return out
+
+
+def fit_arguments(geo: Geometry, min_confidence: float) -> tuple:
+    """The compiled fit's (:func:`cell.vision._kindfit.fit_one`) constant arguments: the
+    camera's xy and drop to the plane, the edge heights, the scoring tables, the limits."""
+    return (float(geo.o[0]), float(geo.o[1]), float(geo.plane_z - geo.o[2]), _MID, _EDGE_LO,
+            _EDGE_HI, _BOLT, KINDS["bolt"].height, *SCORING, MAX_FIT, _ROUGH_HOPELESS,
+            _REFINE_GAP, float(min_confidence))
+
+
+def fit_of(xy: np.ndarray, row: np.ndarray, splits: np.ndarray) -> Fit:
+    """The ``Fit`` of one footprint from its points ``xy`` (outline, then holes, ending at
+    the cumulative ``splits``) and its descriptor ``row`` (built when first read)."""
+    outline = xy[: splits[0]]
+    holes = tuple(xy[splits[j] : splits[j + 1]] for j in range(len(splits) - 1))
+    return Fit(functools.partial(footprint_of, row, outline, holes))
 
 
 def fit_kind(blob: Blob, geo: Geometry, min_confidence: float) -> tuple[str, float, float, Fit]:

@@ -51,6 +51,7 @@ class PolygonSet:
     hole_fraction: np.ndarray
     solidity: np.ndarray
     facets6: np.ndarray
+    table: np.ndarray  # (n, 10): the rows these are columns of
 
 
 def describe_polygons(pts: np.ndarray, starts: np.ndarray, outlines: np.ndarray) -> PolygonSet:
@@ -101,7 +102,7 @@ def as_set(t: np.ndarray) -> PolygonSet:
     return PolygonSet(
         area=t[:, _AREA], outer=t[:, _OUTER], centroid=t[:, _CX : _CY + 1],
         length=t[:, _LENGTH], width=t[:, _WIDTH], rect_angle=t[:, _ANGLE],
-        hole_fraction=t[:, _HOLES], solidity=t[:, _SOLIDITY], facets6=t[:, _FACETS],
+        hole_fraction=t[:, _HOLES], solidity=t[:, _SOLIDITY], facets6=t[:, _FACETS], table=t,
     )
 
 

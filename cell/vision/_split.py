@@ -18,8 +18,10 @@ import cv2
 import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_mask, px_centroid
-from cell.vision._footprint import Fit, fit_kinds
+from cell.vision._cutfit import cut_pieces
+from cell.vision._footprint import Fit, fit_arguments, fit_kinds, fit_of
 from cell.vision._segment import FrameView
+from cell.vision.kind import KIND_NAMES
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -128,7 +130,7 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
         if budget[0] <= 0:
             return
         budget[0] -= 1
-        yield _evaluate(pieces, view, may_split, cut)
+        yield _judge(pieces, view, may_split, cut)
     if not cores:
         return
     x, y, bw, bh = blob.mask_box
@@ -191,42 +193,33 @@ def _polygon_cuts(blob: Blob, view: FrameView):
         (ax, ay), (bx, by) = c[fj].tolist(), c[fi].tolist()
         length = max(math.hypot(bx - ax, by - ay), 1e-9)
         steps = max(int(length), 1)
-        cut = np.linspace((ax, ay), (bx, by), steps + 1)[1:-1]
+        t = np.arange(1.0, steps) / steps
+        cut = np.stack((ax + t * (bx - ax), ay + t * (by - ay)), axis=1)
         out = np.empty_like(cut)
         out[:, 0] = -side * (by - ay) / length
         out[:, 1] = side * (bx - ax) / length
         rays, away = view.geo.plane_rays(cut, out)
-        pieces = [_sub_blob(blob, (slice(fi, fj + 1),), cut, out, rays, away),
-                  _sub_blob(blob, (slice(fj, n), slice(0, fi + 1)), cut[::-1], -out, rays[::-1],
-                            ~away[::-1])]
-        if all(p is not None for p in pieces):
-            yield pieces, len(cut)
+        yield _cut_pieces(blob, view, fi, fj, n, cut, out, rays, away), len(cut)
 
 
-def _sub_blob(blob: Blob, runs: tuple[slice, ...], cut: np.ndarray, cut_normals: np.ndarray,
-              cut_rays: np.ndarray, cut_away: np.ndarray) -> Blob | None:
-    """The piece of a (prepared) blob made of its outline's ``runs`` of points closed by
-    the ``cut`` points (with their normals, rays and top-edge flags), and the holes whose
-    first point lies inside that outline; None for a speck (under 30 px^2)."""
-    contour = np.concatenate([blob.contour[r] for r in runs] + [cut])
-    c32 = contour.astype(np.float32)
-    if cv2.contourArea(c32) < 30:
+def _cut_pieces(blob: Blob, view: FrameView, fi: int, fj: int, n: int, cut: np.ndarray,
+                normals: np.ndarray, rays: np.ndarray, away: np.ndarray) -> list[Piece] | None:
+    """The two pieces, with their best kinds, of the cut from outline point ``fj`` back
+    to ``fi`` (points ``cut``, their outward ``normals``, rays and top-edge flags); None
+    when a piece is a speck (:func:`cell.vision._cutfit.cut_pieces`)."""
+    first = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
+    res = cut_pieces(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, first,
+                     np.arange(fi, fj + 1), np.arange(fj, n + fi + 1) % n, cut, normals, rays,
+                     away, *fit_arguments(view.geo, view.settings.min_kind_confidence))
+    if res is None:
         return None
-    normals = np.concatenate([blob.normals[r] for r in runs] + [cut_normals])
-    rays = [blob.rays[r] for r in runs] + [cut_rays]
-    away = [blob.away[r] for r in runs] + [cut_away]
-    holes, sizes = [], [len(contour)]
-    cuts = blob.splits
-    for k, (h, hn) in enumerate(blob.holes):
-        if cv2.pointPolygonTest(c32, (float(h[0, 0]), float(h[0, 1])), False) > 0:
-            holes.append((h, hn))
-            rays.append(blob.rays[cuts[k] : cuts[k + 1]])
-            away.append(blob.away[cuts[k] : cuts[k + 1]])
-            sizes.append(sizes[-1] + len(h))
-    piece = Blob(contour, normals, holes, cv2.boundingRect(c32), False)
-    piece.rays, piece.away = np.concatenate(rays), np.concatenate(away)
-    piece.splits = np.array(sizes)
-    return piece
+    out = []
+    for (c, nr, r, aw, splits, box, kind, conf, fit, xy, row), holes in zip(res[:2], res[2:],
+                                                                             strict=True):
+        piece = Blob(c, nr, [blob.holes[h] for h in holes.tolist()], tuple(box.tolist()), False)
+        piece.rays, piece.away, piece.splits = r, aw, splits
+        out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", conf, fit_of(xy, row, splits), fit))
+    return out
 
 
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
@@ -274,16 +267,21 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list
     return subs
 
 
-def _evaluate(subs: list[Blob], view: FrameView, may_split: bool,
-              cut: int = 0) -> list[Piece] | None:
-    """Each piece with its best kind; None when a piece fits no kind and cannot be split
+def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece] | None:
+    """Each piece with its best kind (:func:`_judge`)."""
+    fits = fit_kinds(subs, view.geo, view.settings.min_kind_confidence)
+    pieces = [(sub, kind, conf, res, fit) for sub, (kind, conf, fit, res) in zip(subs, fits, strict=True)]
+    return _judge(pieces, view, may_split)
+
+
+def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
+           cut: int = 0) -> list[Piece] | None:
+    """The pieces, or None when there are none or one fits no kind and cannot be split
     further. ``cut``: each piece's outline ends with that many points of a straight cut."""
-    out: list[Piece] = []
-    for sub, (kind, conf, fit, res) in zip(
-            subs, fit_kinds(subs, view.geo, view.settings.min_kind_confidence), strict=True):
-        res.cut = cut
-        p = (sub, kind, conf, res, fit)
-        if kind == "unknown" and not (may_split and _may_split(p, view)):
+    if pieces is None:
+        return None
+    for p in pieces:
+        p[3].cut = cut
+        if p[1] == "unknown" and not (may_split and _may_split(p, view)):
             return None
-        out.append(p)
-    return out
+    return pieces

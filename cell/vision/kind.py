@@ -27,7 +27,7 @@ from numba import njit
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
 from cell.vision._kindfit import classify_rows, score_rows
-from cell.vision._polygons import PolygonSet, describe_polygons
+from cell.vision._polygons import describe_polygons
 
 __all__ = [
     "Footprint",
@@ -97,23 +97,25 @@ def footprint(outline: np.ndarray, holes: tuple[np.ndarray, ...] | list[np.ndarr
     polys = [outline, *hole_list]
     starts = np.concatenate(([0], np.cumsum([len(p) for p in polys])))
     d = describe_polygons(np.concatenate(polys), starts, np.zeros(1, np.intp))
-    return footprint_of(d, 0, outline, tuple(hole_list))
+    return footprint_of(d.table[0], outline, tuple(hole_list))
 
 
-def footprint_of(d: PolygonSet, i: int, outline: np.ndarray,
+def footprint_of(row: np.ndarray, outline: np.ndarray,
                  holes: tuple[np.ndarray, ...]) -> Footprint:
-    """The ``Footprint`` of entry ``i`` of a :class:`~cell.vision._polygons.PolygonSet`."""
+    """The ``Footprint`` of one row of a descriptor table (see
+    :class:`~cell.vision._polygons.PolygonSet`) and its polygons."""
+    area, _, cx, cy, length, width, angle, hole_fraction, solidity, facets6 = row.tolist()
     return Footprint(
         outline=outline,
         holes=holes,
-        area=float(d.area[i]),
-        centroid=d.centroid[i],
-        length=float(d.length[i]),
-        width=float(d.width[i]),
-        rect_angle=float(d.rect_angle[i]),
-        hole_fraction=float(d.hole_fraction[i]),
-        solidity=float(d.solidity[i]),
-        facets6=float(d.facets6[i]),
+        area=area,
+        centroid=np.array((cx, cy)),
+        length=length,
+        width=width,
+        rect_angle=angle,
+        hole_fraction=hole_fraction,
+        solidity=solidity,
+        facets6=facets6,
     )
 
 

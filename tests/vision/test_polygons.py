@@ -130,3 +130,20 @@ def test_plane_rays_meet_the_plane_where_the_camera_model_projects():
     o = cam.T_world_camera[:3, 3]
     np.testing.assert_allclose(o[:2] + (0.08 - o[2]) * rays, world[:, :2], atol=1e-9)
     assert not away.any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(radii, st.floats(-0.05, 0.05), st.floats(-0.05, 0.05))
+def test_point_in_piece_matches_opencv(rs, dx, dy):
+    """The cut stage's point-in-polygon test (outline runs, then cut points) against
+    cv2.pointPolygonTest."""
+    from cell.vision._cutfit import _inside
+
+    poly = _star(rs, centre=(0.0, 0.0)) * 1e3  # pixels-ish
+    k = len(poly)
+    runs = np.arange(0, k - 2)
+    cut = poly[k - 2 :]
+    p = (float(dx * 1e3), float(dy * 1e3))
+    expect = cv2.pointPolygonTest(poly.astype(np.float32), p, True)
+    if abs(expect) > 1e-3:  # off the boundary
+        assert _inside(p[0], p[1], poly, runs, cut) == (expect > 0)

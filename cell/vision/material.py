@@ -23,20 +23,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from itertools import accumulate
 
-import cv2
 import numpy as np
 
 from cell.catalogue import MATERIALS
 from cell.errors import VisionError
+from cell.vision._material_kernel import (
+    KEPT,
+    MEAN,
+    NORM,
+    S_NOISE2,
+    S_PAR,
+    UNCLIPPED,
+    N,
+    patch_statistics,
+)
 
-__all__ = ["SUPPORT", "MaterialFeatures", "classify_material", "classify_materials",
-           "material_features", "mosaic_features"]
+__all__ = ["MaterialFeatures", "classify_material", "classify_materials",
+           "features_from_statistics", "material_features"]
 
 _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
-SUPPORT = 2  # px: how far the features' filters (3x3 mean, then 3x3 Sobel) read around a pixel
 
 
 @dataclass(frozen=True)
@@ -84,8 +91,11 @@ def material_features(
 
     The grain is measured on the high-pass residual (pixel minus its 3x3 mean), so smooth
     shading across a face does not count, with robust (median-based) scales, so the few
-    pixels on a wall's edge do not count either. The filters see the patch mirrored at its
-    border (``cv2.BORDER_REFLECT_101``): :func:`mosaic_features` on the patch padded so.
+    pixels on a wall's edge do not count either; only the flatter, lit half of the part's
+    pixels is used (shading, a bolt's curved flank or an edge lit at a grazing angle,
+    leaves a high-pass residual too, but shows in the gradient of the smoothed grey).
+    The filters see the patch mirrored at its border (``cv2.BORDER_REFLECT_101``); the
+    pixel statistics are :func:`cell.vision._material_kernel.patch_statistics`'.
     """
     if not isinstance(patch, np.ndarray) or patch.ndim != 3 or patch.shape[2] != 3:
         raise VisionError(f"material_features: argument 'patch' must be (H, W, 3), got "
@@ -94,83 +104,45 @@ def material_features(
     if mask.shape != patch.shape[:2]:
         raise VisionError(f"material_features: argument 'mask' must be {patch.shape[:2]}, "
                           f"got {mask.shape}")
-    m8 = mask.view(np.uint8)
-    n = cv2.countNonZero(m8)
+    n = int(np.count_nonzero(mask))
     if n < 8:
         raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
     if patch.dtype != np.uint8:
         patch = np.clip(patch, 0, 255).astype(np.uint8)
-    p = SUPPORT
-    padded = cv2.copyMakeBorder(np.ascontiguousarray(patch), p, p, p, p, cv2.BORDER_REFLECT_101)
-    at = np.flatnonzero(np.pad(mask, p))
-    return mosaic_features(padded, at, [n], np.asarray(belt_rgb_seen, dtype=np.float64)[None],
-                           belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
+    stats = patch_statistics(np.ascontiguousarray(patch),
+                             np.ascontiguousarray(mask.view(np.uint8)))
+    return features_from_statistics(stats[None], np.asarray(belt_rgb_seen, np.float64)[None],
+                                    belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
 
 
-def mosaic_features(
-    img: np.ndarray,
-    at: np.ndarray,
-    counts: list[int],
+def features_from_statistics(
+    stats: np.ndarray,
     belt_rgb_seen: np.ndarray,
     *,
     belt_rgb: tuple[float, ...],
     noise_sigma: float = 0.0,
 ) -> list[MaterialFeatures]:
-    """Grain and albedo features of several parts whose patches share one image.
+    """Grain and albedo features of parts from their pixel statistics.
 
     Parameters
     ----------
-    img : (H, W, 3) uint8 RGB, a mosaic of the parts' patches. The features' filters (3x3
-        mean, then 3x3 Sobel) read ``SUPPORT`` px around each part pixel, so what lies
-        there must be that part's patch: its pixels in the frame, or the patch mirrored
-        (``cv2.BORDER_REFLECT_101``) where it ends.
-    at : (N,) int, the parts' pixels as flat indices into ``img``'s rows and columns,
-        part after part, each part's in row-major order.
-    counts : how many of ``at`` each part has (at least 8 each).
+    stats : (P, N_STATS) float, rows of :mod:`cell.vision._material_kernel`: pixels,
+        pixels kept for the grain, mean RGB, its length, the scales of the residual along
+        and across the mean colour, unclipped pixels.
     belt_rgb_seen : (P, 3) the belt's colour next to each part (grey levels).
     belt_rgb, noise_sigma : as for :func:`material_features`.
 
-    The filters run once over the whole mosaic, the robust statistics (``ndarray.partition``)
-    on each part's run of pixels.
+    Grain and noise: the residual's component along the part's colour holds grain +
+    noise, its length across only noise (Rayleigh: median = 1.1774 sigma); grain
+    variance = difference of the two variances, with its standard error.
     """
-    img = np.ascontiguousarray(img)
-    starts = list(accumulate(counts[:-1], initial=0))
-    pix = img.reshape(-1, 3).take(at, axis=0)
-    means = np.add.reduceat(pix, starts, axis=0, dtype=np.float64)
-    means *= [[1.0 / n] for n in counts]  # the integer sums times 1/n, as cv2.mean scales
-    # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
-    # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
-    # shows in the gradient of the smoothed image; the flatter half of the part is kept.
-    grey = cv2.blur(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY), (3, 3))
-    slope, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
-    slope *= slope
-    gy *= gy
-    slope += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
-    lit = grey.reshape(-1).take(at)
-    slope_q = _upper_medians(slope.copy(), starts, counts)
-    lit_q = _upper_medians(lit.copy(), starts, counts)
-    flat = slope <= np.repeat(slope_q, counts)
-    flat &= lit >= np.repeat(lit_q, counts)  # and the lit half: off the shadow terminator
-    # the high-pass residual (pixel less its 3x3 mean) there only
-    kept = np.flatnonzero(flat)
-    local = cv2.blur(img, (3, 3)).reshape(-1, 3).take(at.take(kept), axis=0)
-    resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
-    kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
-    norms = [math.sqrt(m @ m) for m in means]
-    if min(norms) > 1e-6:
-        units = means / np.array(norms)[:, None]
-    else:  # a black part: any direction will do
-        units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
-                          for m, r in zip(means, norms, strict=True)])
-    par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
-    stats = _robust_scales(par, orth2, kept_n)
-    unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)
-    unclipped = np.add.reduceat(unclipped, starts, dtype=np.intp).tolist()
+    means = stats[:, MEAN : MEAN + 3]
     albedo = means / np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
     albedo *= belt_rgb
     out = []
-    for i, (n, m, norm, (s_par, s_noise2)) in enumerate(zip(counts, kept_n, norms, stats, strict=True)):
-        s_noise = math.sqrt(max(s_noise2, 0.0)) / 1.1774  # Rayleigh median
+    for i, row in enumerate(stats.tolist()):
+        n, m, norm, s_par = int(row[N]), int(row[KEPT]), row[NORM], row[S_PAR]
+        s_noise = math.sqrt(max(row[S_NOISE2], 0.0)) / 1.1774  # Rayleigh median
         s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
         grain_var = s_par**2 - s_noise**2
         se = math.sqrt(2.0 / (0.37 * max(m, 1))) * (s_par**2 + s_noise**2) + 1e-9
@@ -179,46 +151,11 @@ def mosaic_features(
             albedo=albedo[i],
             grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
             grain_z=grain_var / se,
-            clipped=1.0 - unclipped[i] / (255 * n),  # = count / n: the same quotient
+            clipped=1.0 - row[UNCLIPPED] / n,
             pixels=n,
             grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
         ))
     return out
-
-
-def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> np.ndarray:
-    """Element ``n // 2`` in order (``ndarray.partition``) of each run of ``values``; the
-    runs are partitioned in place."""
-    out = np.empty(len(counts), values.dtype)
-    for i, (s, n) in enumerate(zip(starts, counts, strict=True)):
-        run = values[s : s + n]
-        run.partition(n // 2)
-        out[i] = run[n // 2]
-    return out
-
-
-def _along_and_across(resid: np.ndarray, units: np.ndarray, counts: list[int]):
-    """The residuals' (M, 1, 3) float32 component along their part's colour direction
-    (``units`` (P, 3), ``cv2.transform`` part by part) and squared length across it."""
-    par = np.empty(len(resid), np.float32)
-    s = 0
-    for i, n in enumerate(counts):
-        cv2.transform(resid[s : s + n], units[i : i + 1], dst=par[s : s + n].reshape(-1, 1))
-        s += n
-    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1)
-    orth2 -= par * par
-    return par, orth2
-
-
-def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: list[int]) -> list[tuple]:
-    """Per run of ``counts``: (1.4826 * the MAD of ``par``, the upper median of ``orth2``),
-    as Python floats; medians are element ``n // 2`` in order (``ndarray.partition``)."""
-    starts = list(accumulate(counts[:-1], initial=0))
-    meds = _upper_medians(par, starts, counts)  # in place: only each run's values count
-    dev = np.abs(par - np.repeat(meds, counts))
-    mads = _upper_medians(dev, starts, counts).tolist()
-    return [(1.4826 * a, b)
-            for a, b in zip(mads, _upper_medians(orth2, starts, counts).tolist(), strict=True)]
 
 
 _FINISH_ALBEDO = np.array([

@@ -1,0 +1,386 @@
+"""Compiled pixel statistics of the material classifier: every part of a frame in one pass
+(numba).
+
+Per part (:func:`frame_statistics`): the interior, a 5x5 erosion of its mask
+``Blob.roi`` (3x3 where that leaves fewer than 150 pixels), which, as ``cv2.erode``'s
+default border, does not eat into the ROI's own edge; the interior's bounding box; the
+belt's mean colour over the free pixels (``FrameView.fg`` not 255) of the ROI's box and
+6 px around it (``cv2.mean``: integer sums times 1/n); and the statistics of the
+interior's pixels (:func:`_statistics`) that
+:func:`cell.vision.material.features_from_statistics` turns into features.
+
+The filters read the interior's bounding box and ``SUPPORT`` px around it (within the
+ROI), mirrored beyond it (``cv2.BORDER_REFLECT_101``), and reproduce OpenCV's integer
+arithmetic: grey (``cv2.COLOR_RGB2GRAY``, coefficients 9798/19235/3735 >> 15, rounded),
+3x3 means (``cv2.blur``, rounded to nearest), the 3x3 Sobel (``cv2.spatialGradient``),
+and the colour projection of ``cv2.transform`` (float32, fused multiply-adds in the order
+OpenCV's compiled code uses), so the features equal those of the OpenCV pipeline bit for
+bit. Order statistics are element ``n // 2`` in order (an upper median).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+
+__all__: list[str] = []  # private to cell.vision
+
+SUPPORT = 2  # px: how far the filters (3x3 mean, then 3x3 Sobel) read around a pixel
+# columns of a statistics row
+N, KEPT, MEAN, NORM, S_PAR, S_NOISE2, UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
+N_STATS = 9
+_FREE, _BELT = 0, 1  # columns of a belt row: free pixels, mean colour (3)
+_PAD = 2  # px of 255 each side of a ROI's rows, so the erosion need not test the row ends
+_MIN_FREE = 30  # fewer free pixels than this around a part: the belt is not measured
+
+
+def frame_statistics(img: np.ndarray, fg: np.ndarray, boxes: np.ndarray,
+                     masks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Statistics rows (P, N_STATS) and belt rows (P, 4: free pixels, mean RGB) of the
+    parts of a frame (see the module docstring).
+
+    ``img`` uint8 RGB (H, W, 3) and ``fg`` uint8 (H, W), C-contiguous; ``boxes`` int64
+    (P, 5): each part's ROI as x0, y0, height, width and its offset in ``masks``, the ROIs
+    (uint8, nonzero inside) flattened one after the other. A part whose interior has
+    fewer than 8 pixels gets ``N`` 0 and no other statistic; one with fewer than 30 free
+    pixels around it gets its free count and no belt colour.
+    """
+    stats = np.zeros((len(boxes), N_STATS))
+    belts = np.zeros((len(boxes), 4))
+    _frame(img, fg, boxes, masks, stats, belts)
+    return stats, belts
+
+
+def patch_statistics(patch: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The statistics row (N_STATS,) of the pixels ``mask`` (uint8 (h, w), nonzero: at
+    least 8) of a uint8 RGB ``patch`` (h, w, 3), both C-contiguous, the filters seeing the
+    patch mirrored at its border."""
+    out = np.zeros(N_STATS)
+    _statistics(patch, 0, 0, mask, 0, mask.shape[0], 0, mask.shape[1], out)
+    return out
+
+
+@njit(cache=True)
+def noise_sigma(img):  # pragma: no cover (compiled)
+    """The frame's sensor noise (grey levels), as ``FrameView.noise_sigma`` estimates it:
+    1.4826 * the MAD of the green channel's differences of pixels two apart on every
+    16th row from row 4, over sqrt(2); upper medians, from a histogram."""
+    hist = np.zeros(511, np.int64)
+    total = 0
+    for y in range(4, img.shape[0], 16):
+        prev = np.int64(img[y, 0, 1])
+        for x in range(2, img.shape[1], 2):
+            cur = np.int64(img[y, x, 1])
+            hist[cur - prev + 255] += 1
+            prev = cur
+            total += 1
+    half = total // 2 + 1
+    med = _first_reaching(hist, half)
+    dev = np.zeros(511, np.int64)
+    for d in range(511):
+        dev[abs(d - med)] += hist[d]
+    return 1.4826 * _first_reaching(dev, half) / math.sqrt(2)
+
+
+@njit(cache=True)
+def _first_reaching(hist, count):  # pragma: no cover (compiled)
+    """The first bin at which the cumulative ``hist`` reaches ``count``."""
+    s = 0
+    for b in range(hist.shape[0]):
+        s += hist[b]
+        if s >= count:
+            return b
+    return hist.shape[0]
+
+
+@intrinsic
+def _fma32(typingctx, a, b, c):  # pragma: no cover (compiled)
+    """a * b + c in float32, rounded once (LLVM's fma)."""
+    sig = types.float32(types.float32, types.float32, types.float32)
+
+    def codegen(context, builder, signature, args):
+        f = ir.FloatType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [f], ir.FunctionType(f, [f, f, f]))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@njit(cache=True)
+def _frame(img, fg, boxes, masks, stats, belts):  # pragma: no cover (compiled)
+    p = SUPPORT
+    for i in range(boxes.shape[0]):
+        x0, y0, h, w, off = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4]
+        roi = np.full((h, w + 2 * _PAD), 255, np.uint8)
+        src = masks[off:]
+        for y in range(h):
+            row, dst = src[y * w :], roi[y, _PAD:]
+            for x in range(w):
+                dst[x] = row[x]
+        sel = np.empty_like(roi)
+        across = np.empty_like(roi)
+        n, ya, yb, xa, xb = _erode(roi, 2, across, sel)
+        if n < 150:
+            n, ya, yb, xa, xb = _erode(roi, 1, across, sel)
+            if n < 8:
+                continue
+        ya, xa = max(ya - p, 0), max(xa - p, _PAD)
+        yb, xb = min(yb + p, h), min(xb + p, w + _PAD)
+        _statistics(img, y0, x0 - _PAD, sel, ya, yb, xa, xb, stats[i])
+        _belt(img, fg, max(x0 - 6, 0), max(y0 - 6, 0), min(x0 + w + 6, img.shape[1]),
+              min(y0 + h + 6, img.shape[0]), belts[i])
+
+
+@njit(cache=True)
+def _erode(roi, r, across, out):  # pragma: no cover (compiled)
+    """``out`` = ``roi`` eroded by a (2r+1)-square, separably (rows, then columns, through
+    ``across``): nonzero where the whole square is, the image beyond ``roi``'s rows counting
+    as nonzero and its first and last ``_PAD`` >= r columns being 255 (so the erosion does
+    not eat into the ROI's own edge, as ``cv2.erode``'s default border). Returns the count
+    of nonzero pixels in the other columns (the pad's are cleared) and their bounding box:
+    rows [ya, yb), columns [xa, xb)."""
+    h, wp = roi.shape
+    size = h * wp
+    src, acr, dst = roi.reshape(-1), across.reshape(-1), out.reshape(-1)
+    acr[:] = src
+    for d in range(1, r + 1):
+        _min_into(acr[: size - d], src[d:])
+        _min_into(acr[d:], src[: size - d])
+    dst[:] = acr
+    for d in range(1, min(r, h - 1) + 1):
+        _min_into(dst[: size - d * wp], acr[d * wp :])
+        _min_into(dst[d * wp :], acr[: size - d * wp])
+    for y in range(h):
+        for x in range(_PAD):
+            out[y, x] = out[y, wp - 1 - x] = 0
+    n = np.uint32(0)
+    for i in range(size):
+        n += dst[i] != 0
+    first, last = 0, size - 1
+    while first < size and dst[first] == 0:
+        first += 1
+    if first == size:
+        return 0, 0, 0, 0, 0
+    while dst[last] == 0:
+        last -= 1
+    ya, yb = first // wp, last // wp + 1
+    cols = out[ya].copy()
+    for y in range(ya + 1, yb):
+        _max_into(cols, out[y])
+    xa, xb = wp, 0
+    for x in range(wp):
+        if cols[x]:
+            xa, xb = min(xa, x), x + 1
+    return n, ya, yb, xa, xb
+
+
+@njit(cache=True)
+def _min_into(dst, src):  # pragma: no cover (compiled)
+    for x in range(dst.shape[0]):
+        dst[x] = min(dst[x], src[x])
+
+
+@njit(cache=True)
+def _max_into(dst, src):  # pragma: no cover (compiled)
+    for x in range(dst.shape[0]):
+        dst[x] = max(dst[x], src[x])
+
+
+@njit(cache=True)
+def _belt(img, fg, xa, ya, xb, yb, out):  # pragma: no cover (compiled)
+    """Free pixels of the window and, from ``_MIN_FREE`` of them, their mean colour."""
+    pix, free = img.reshape(-1), fg.reshape(-1)
+    stride, w = img.shape[1], xb - xa
+    s0 = s1 = s2 = n = 0
+    for y in range(ya, yb):
+        row, f = pix[3 * (y * stride + xa) :], free[y * stride + xa :]
+        t0 = t1 = t2 = c = np.uint32(0)
+        for x in range(w):
+            m = np.uint32(f[x] != 255)
+            t0 += row[3 * x] * m
+            t1 += row[3 * x + 1] * m
+            t2 += row[3 * x + 2] * m
+            c += m
+        s0, s1, s2, n = s0 + t0, s1 + t1, s2 + t2, n + c
+    out[_FREE] = n
+    if n >= _MIN_FREE:
+        scale = 1.0 / n
+        out[_BELT], out[_BELT + 1], out[_BELT + 2] = s0 * scale, s1 * scale, s2 * scale
+
+
+@njit(cache=True)
+def _reflect(p, n):  # pragma: no cover (compiled)
+    """``cv2.borderInterpolate(p, n, cv2.BORDER_REFLECT_101)``."""
+    if n == 1:
+        return 0
+    while p < 0 or p >= n:
+        p = -p if p < 0 else 2 * n - 2 - p
+    return p
+
+
+@njit(cache=True)
+def _padded(img, y0, x0, ph, pw):  # pragma: no cover (compiled)
+    """The patch ``img[y0 : y0 + ph, x0 : x0 + pw]`` with ``SUPPORT`` px mirrored around
+    it (``cv2.copyMakeBorder``, ``cv2.BORDER_REFLECT_101``), flattened: (ph + 4) rows of
+    (pw + 4) RGB pixels."""
+    p = SUPPORT
+    ww = pw + 2 * p
+    flat, stride = img.reshape(-1), 3 * img.shape[1]
+    out = np.empty((ph + 2 * p) * ww * 3, np.uint8)
+    for a in range(ph + 2 * p):
+        src = flat[(y0 + _reflect(a - p, ph)) * stride + 3 * x0 :]
+        dst = out[3 * a * ww :]
+        mid = dst[3 * p :]
+        for k in range(3 * pw):
+            mid[k] = src[k]
+        for b in range(p):
+            left, right = 3 * _reflect(b - p, pw), 3 * _reflect(pw + b, pw)
+            for c in range(3):
+                dst[3 * b + c] = src[left + c]
+                dst[3 * (p + pw + b) + c] = src[right + c]
+    return out
+
+
+@njit(cache=True)
+def _statistics(img, y0, x0, mask, ya, yb, xa, xb, out):  # pragma: no cover (compiled)
+    """The statistics row of the pixels ``mask[ya:yb, xa:xb]`` (nonzero) of the patch
+    ``img[y0 + ya : y0 + yb, x0 + xa : x0 + xb]``, mirrored beyond it."""
+    ph, pw = yb - ya, xb - xa
+    p = SUPPORT
+    ww = pw + 2 * p
+    size = (ph + 2 * p) * ww
+    pix = _padded(img, y0 + ya, x0 + xa, ph, pw)
+    grey = np.empty(size, np.int32)
+    for i in range(size):
+        grey[i] = (9798 * np.int32(pix[3 * i]) + 19235 * np.int32(pix[3 * i + 1])
+                   + 3735 * np.int32(pix[3 * i + 2]) + 16384) >> 15
+    across = np.zeros(size, np.int32)  # 3-sums along rows (wrong, unused, at the edges)
+    a, g0, g1, g2 = across[1:], grey[: size - 2], grey[1:], grey[2:]
+    for i in range(size - 2):
+        a[i] = g0[i] + g1[i] + g2[i]
+    lit = np.zeros(size, np.int32)  # the 3x3 mean of grey (cv2.blur), 1 px in from the frame
+    d, a0, a1, a2 = lit[ww:], across[: size - 2 * ww], across[ww:], across[2 * ww :]
+    for i in range(size - 2 * ww):
+        d[i] = (a0[i] + a1[i] + a2[i] + 4) // 9
+    # the 3x3 Sobel's (cv2.spatialGradient's) squared length, 2 px in from the frame
+    slope = np.zeros(size, np.int32)
+    k = 2 * ww + 2
+    m = size - 2 * k
+    d, up, mid, down = slope[k:], lit[k - ww - 1 :], lit[k - 1 :], lit[k + ww - 1 :]
+    for i in range(m):
+        gx = up[i + 2] + 2 * mid[i + 2] + down[i + 2] - up[i] - 2 * mid[i] - down[i]
+        gy = down[i] + 2 * down[i + 1] + down[i + 2] - up[i] - 2 * up[i + 1] - up[i + 2]
+        d[i] = gx * gx + gy * gy
+    at = np.empty(ph * pw, np.int64)
+    n = 0
+    for r in range(ph):
+        row = mask[ya + r, xa:xb]
+        base = (r + p) * ww + p
+        for b in range(pw):
+            if row[b]:
+                at[n] = base + b
+                n += 1
+    ranked = np.empty(n, np.int32)
+    hist = np.zeros(256, np.int64)
+    s0 = s1 = s2 = unclipped = 0
+    for j in range(n):
+        i = at[j]
+        ranked[j] = slope[i]
+        hist[lit[i]] += 1
+        c0, c1, c2 = pix[3 * i], pix[3 * i + 1], pix[3 * i + 2]
+        s0, s1, s2 = s0 + c0, s1 + c1, s2 + c2
+        unclipped += max(c0, c1, c2) <= 253
+    half = n // 2
+    slope_q = _select(ranked, half)
+    lit_q = _first_reaching(hist, half + 1)
+    scale = 1.0 / n
+    m0, m1, m2 = s0 * scale, s1 * scale, s2 * scale
+    norm = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+    if norm > 1e-6:
+        u0, u1, u2 = np.float32(m0 / norm), np.float32(m1 / norm), np.float32(m2 / norm)
+    else:  # a black part: any direction will do
+        u0 = u1 = u2 = np.float32(1.0 / math.sqrt(3.0))
+    par = np.empty(n, np.float32)
+    dev = np.empty(n, np.float32)
+    orth2 = np.empty(n, np.float32)
+    kept = 0
+    for j in range(n):
+        i = at[j]
+        if slope[i] > slope_q or lit[i] < lit_q:
+            continue  # only the flatter, lit half: off shading and the shadow terminator
+        r0 = np.float32(pix[3 * i]) - np.float32(_mean3(pix, 3 * i, 3 * ww))
+        r1 = np.float32(pix[3 * i + 1]) - np.float32(_mean3(pix, 3 * i + 1, 3 * ww))
+        r2 = np.float32(pix[3 * i + 2]) - np.float32(_mean3(pix, 3 * i + 2, 3 * ww))
+        along = _fma32(u2, r2, _fma32(u0, r0, u1 * r1))  # cv2.transform's arithmetic
+        par[kept] = dev[kept] = along
+        orth2[kept] = (r0 * r0 + r1 * r1 + r2 * r2) - along * along
+        kept += 1
+    out[N], out[KEPT], out[UNCLIPPED] = n, kept, unclipped
+    out[MEAN], out[MEAN + 1], out[MEAN + 2], out[NORM] = m0, m1, m2, norm
+    if kept:
+        half = kept // 2
+        med = _select(par[:kept], half)
+        for j in range(kept):
+            dev[j] = abs(dev[j] - med)
+        out[S_PAR] = 1.4826 * np.float64(_select(dev[:kept], half))
+        out[S_NOISE2] = _select(orth2[:kept], half)
+
+
+@njit(cache=True)
+def _mean3(pix, i, stride):  # pragma: no cover (compiled)
+    """``cv2.blur`` (3x3, rounded) at byte ``i`` of the flattened padded patch (one
+    channel; rows ``stride`` bytes apart)."""
+    s = np.int32(0)
+    for j in (i - stride, i, i + stride):
+        s += np.int32(pix[j - 3]) + np.int32(pix[j]) + np.int32(pix[j + 3])
+    return (s + 4) // 9
+
+
+@njit(cache=True)
+def _select(v, k):  # pragma: no cover (compiled)
+    """Element ``k`` of ``v`` in order (as ``np.partition(v, k)[k]``); ``v`` is reordered
+    (quickselect, Hoare's partition with a median-of-three pivot)."""
+    lo, hi = 0, v.shape[0] - 1
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if v[mid] < v[lo]:
+            v[lo], v[mid] = v[mid], v[lo]
+        if v[hi] < v[mid]:
+            v[hi], v[mid] = v[mid], v[hi]
+            if v[mid] < v[lo]:
+                v[lo], v[mid] = v[mid], v[lo]
+        pivot = v[mid]
+        i, j = lo, hi
+        while i <= j:
+            while v[i] < pivot:
+                i += 1
+            while pivot < v[j]:
+                j -= 1
+            if i <= j:
+                v[i], v[j] = v[j], v[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return v[k]
+
+
+def warm_up() -> None:
+    """Load (or compile, on the very first run) the kernels, on a made-up frame with one
+    part, so a detector's first frame is as fast as its others."""
+    img = np.full((48, 64, 3), 120, np.uint8)
+    fg = np.zeros((48, 64), np.uint8)
+    roi = np.zeros((30, 30), np.uint8)
+    roi[5:25, 5:25] = 255
+    boxes = np.array([[10, 8, 30, 30, 0]], np.int64)
+    frame_statistics(img, fg, boxes, roi.ravel())
+    patch_statistics(img[:20, :20].copy(), np.ascontiguousarray(roi[5:25, 5:25]))
+    noise_sigma(img)

@@ -137,57 +137,70 @@ def _frame(img, fg, boxes, masks, stats, belts):  # pragma: no cover (compiled)
 
 @njit(cache=True)
 def _erode(roi, r, across, out):  # pragma: no cover (compiled)
-    """``out`` = ``roi`` eroded by a (2r+1)-square, separably (rows, then columns, through
-    ``across``): nonzero where the whole square is, the image beyond ``roi``'s rows counting
-    as nonzero and its first and last ``_PAD`` >= r columns being 255 (so the erosion does
-    not eat into the ROI's own edge, as ``cv2.erode``'s default border). Returns the count
-    of nonzero pixels in the other columns (the pad's are cleared) and their bounding box:
-    rows [ya, yb), columns [xa, xb)."""
+    """``out`` = ``roi`` eroded by a (2r+1)-square (r = 1 or 2), separably (rows, then
+    columns, through ``across``): nonzero where the whole square is, rows beyond
+    ``roi``'s counting as nonzero and its first and last ``_PAD`` >= r columns being 255
+    (so the erosion does not eat into the ROI's own edge, as ``cv2.erode``'s default
+    border). Returns the count of nonzero pixels in the other columns (the pad's are
+    cleared) and their bounding box: rows [ya, yb), columns [xa, xb)."""
     h, wp = roi.shape
     size = h * wp
     src, acr, dst = roi.reshape(-1), across.reshape(-1), out.reshape(-1)
-    acr[:] = src
-    for d in range(1, r + 1):
-        _min_into(acr[: size - d], src[d:])
-        _min_into(acr[d:], src[: size - d])
-    dst[:] = acr
-    for d in range(1, min(r, h - 1) + 1):
-        _min_into(dst[: size - d * wp], acr[d * wp :])
-        _min_into(dst[d * wp :], acr[: size - d * wp])
+    for i in range(r):  # (pad columns: never read for the ROI's own)
+        acr[i] = acr[size - 1 - i] = 0
+    if r == 2:
+        a, s0, s1, s2, s3, s4 = acr[2:], src[: size - 4], src[1:], src[2:], src[3:], src[4:]
+        for i in range(size - 4):
+            a[i] = min(min(min(s0[i], s1[i]), min(s2[i], s3[i])), s4[i])
+    else:
+        a, s0, s1, s2 = acr[1:], src[: size - 2], src[1:], src[2:]
+        for i in range(size - 2):
+            a[i] = min(min(s0[i], s1[i]), s2[i])
+    if h > 2 * r:  # rows with all 2r + 1 rows of the square in the ROI
+        k = r * wp
+        m = size - 2 * k
+        if r == 2:
+            d, t0, t1, t2, t3, t4 = dst[k:], acr[:m], acr[wp:], acr[k:], acr[k + wp :], acr[2 * k :]
+            for i in range(m):
+                d[i] = min(min(min(t0[i], t1[i]), min(t2[i], t3[i])), t4[i])
+        else:
+            d, t0, t1, t2 = dst[k:], acr[:m], acr[k:], acr[2 * k :]
+            for i in range(m):
+                d[i] = min(min(t0[i], t1[i]), t2[i])
+    for y in range(h):  # the first and last r rows: the square clipped to the ROI
+        if r <= y < h - r:
+            continue
+        d = dst[y * wp :]
+        for x in range(wp):
+            d[x] = 255
+        for v in range(max(y - r, 0), min(y + r + 1, h)):
+            t = acr[v * wp :]
+            for x in range(wp):
+                d[x] = min(d[x], t[x])
     for y in range(h):
         for x in range(_PAD):
             out[y, x] = out[y, wp - 1 - x] = 0
     n = np.uint32(0)
     for i in range(size):
         n += dst[i] != 0
-    first, last = 0, size - 1
-    while first < size and dst[first] == 0:
-        first += 1
-    if first == size:
+    if n == 0:
         return 0, 0, 0, 0, 0
+    first, last = 0, size - 1
+    while dst[first] == 0:
+        first += 1
     while dst[last] == 0:
         last -= 1
     ya, yb = first // wp, last // wp + 1
-    cols = out[ya].copy()
-    for y in range(ya + 1, yb):
-        _max_into(cols, out[y])
+    cols = np.zeros(wp, np.uint8)
+    for y in range(ya, yb):
+        row = dst[y * wp :]
+        for x in range(wp):
+            cols[x] = max(cols[x], row[x])
     xa, xb = wp, 0
     for x in range(wp):
         if cols[x]:
             xa, xb = min(xa, x), x + 1
     return n, ya, yb, xa, xb
-
-
-@njit(cache=True)
-def _min_into(dst, src):  # pragma: no cover (compiled)
-    for x in range(dst.shape[0]):
-        dst[x] = min(dst[x], src[x])
-
-
-@njit(cache=True)
-def _max_into(dst, src):  # pragma: no cover (compiled)
-    for x in range(dst.shape[0]):
-        dst[x] = max(dst[x], src[x])
 
 
 @njit(cache=True)
@@ -212,7 +225,7 @@ def _belt(img, fg, xa, ya, xb, yb, out):  # pragma: no cover (compiled)
         out[_BELT], out[_BELT + 1], out[_BELT + 2] = s0 * scale, s1 * scale, s2 * scale
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _reflect(p, n):  # pragma: no cover (compiled)
     """``cv2.borderInterpolate(p, n, cv2.BORDER_REFLECT_101)``."""
     if n == 1:
@@ -265,7 +278,7 @@ def _statistics(img, y0, x0, mask, ya, yb, xa, xb, out):  # pragma: no cover (co
     lit = np.zeros(size, np.int32)  # the 3x3 mean of grey (cv2.blur), 1 px in from the frame
     d, a0, a1, a2 = lit[ww:], across[: size - 2 * ww], across[ww:], across[2 * ww :]
     for i in range(size - 2 * ww):
-        d[i] = (a0[i] + a1[i] + a2[i] + 4) // 9
+        d[i] = _div9(a0[i] + a1[i] + a2[i] + 4)
     # the 3x3 Sobel's (cv2.spatialGradient's) squared length, 2 px in from the frame
     slope = np.zeros(size, np.int32)
     k = 2 * ww + 2
@@ -304,72 +317,78 @@ def _statistics(img, y0, x0, mask, ya, yb, xa, xb, out):  # pragma: no cover (co
         u0, u1, u2 = np.float32(m0 / norm), np.float32(m1 / norm), np.float32(m2 / norm)
     else:  # a black part: any direction will do
         u0 = u1 = u2 = np.float32(1.0 / math.sqrt(3.0))
-    par = np.empty(n, np.float32)
-    dev = np.empty(n, np.float32)
-    orth2 = np.empty(n, np.float32)
-    kept = 0
+    flat = np.empty(n, np.int64)  # only the flatter, lit half: off shading and the
+    kept = 0  # shadow terminator (compacted without branches)
     for j in range(n):
         i = at[j]
-        if slope[i] > slope_q or lit[i] < lit_q:
-            continue  # only the flatter, lit half: off shading and the shadow terminator
-        r0 = np.float32(pix[3 * i]) - np.float32(_mean3(pix, 3 * i, 3 * ww))
-        r1 = np.float32(pix[3 * i + 1]) - np.float32(_mean3(pix, 3 * i + 1, 3 * ww))
-        r2 = np.float32(pix[3 * i + 2]) - np.float32(_mean3(pix, 3 * i + 2, 3 * ww))
+        flat[kept] = i
+        kept += (slope[i] <= slope_q) & (lit[i] >= lit_q)
+    par = np.empty(kept, np.float32)
+    dev = np.empty(kept, np.float32)
+    orth2 = np.empty(kept, np.float32)
+    for j in range(kept):
+        i = 3 * flat[j]
+        r0 = np.float32(pix[i]) - np.float32(_mean3(pix, i, 3 * ww))
+        r1 = np.float32(pix[i + 1]) - np.float32(_mean3(pix, i + 1, 3 * ww))
+        r2 = np.float32(pix[i + 2]) - np.float32(_mean3(pix, i + 2, 3 * ww))
         along = _fma32(u2, r2, _fma32(u0, r0, u1 * r1))  # cv2.transform's arithmetic
-        par[kept] = dev[kept] = along
-        orth2[kept] = (r0 * r0 + r1 * r1 + r2 * r2) - along * along
-        kept += 1
+        par[j] = dev[j] = along
+        orth2[j] = (r0 * r0 + r1 * r1 + r2 * r2) - along * along
     out[N], out[KEPT], out[UNCLIPPED] = n, kept, unclipped
     out[MEAN], out[MEAN + 1], out[MEAN + 2], out[NORM] = m0, m1, m2, norm
     if kept:
         half = kept // 2
-        med = _select(par[:kept], half)
+        med = _select(par, half)
         for j in range(kept):
             dev[j] = abs(dev[j] - med)
-        out[S_PAR] = 1.4826 * np.float64(_select(dev[:kept], half))
-        out[S_NOISE2] = _select(orth2[:kept], half)
+        out[S_PAR] = 1.4826 * np.float64(_select(dev, half))
+        out[S_NOISE2] = _select(orth2, half)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mean3(pix, i, stride):  # pragma: no cover (compiled)
-    """``cv2.blur`` (3x3, rounded) at byte ``i`` of the flattened padded patch (one
-    channel; rows ``stride`` bytes apart)."""
+    """``cv2.blur`` (3x3, rounded) at byte ``i`` of the flattened padded RGB patch ``pix``
+    (one channel; rows ``stride`` bytes apart)."""
     s = np.int32(0)
     for j in (i - stride, i, i + stride):
         s += np.int32(pix[j - 3]) + np.int32(pix[j]) + np.int32(pix[j + 3])
-    return (s + 4) // 9
+    return _div9(s + 4)
+
+
+@njit(cache=True, inline="always")
+def _div9(x):  # pragma: no cover (compiled)
+    """``x // 9`` for 0 <= x < 2**14 (9 * 255 + 4 at most here), by a multiply and a
+    shift (exact there: 58255 / 2**19 exceeds 1/9 by less than 1 / (9 * 2**14))."""
+    return (x * 58255) >> 19
 
 
 @njit(cache=True)
 def _select(v, k):  # pragma: no cover (compiled)
-    """Element ``k`` of ``v`` in order (as ``np.partition(v, k)[k]``); ``v`` is reordered
-    (quickselect, Hoare's partition with a median-of-three pivot)."""
-    lo, hi = 0, v.shape[0] - 1
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if v[mid] < v[lo]:
-            v[lo], v[mid] = v[mid], v[lo]
-        if v[hi] < v[mid]:
-            v[hi], v[mid] = v[mid], v[hi]
-            if v[mid] < v[lo]:
-                v[lo], v[mid] = v[mid], v[lo]
-        pivot = v[mid]
-        i, j = lo, hi
-        while i <= j:
-            while v[i] < pivot:
-                i += 1
-            while pivot < v[j]:
-                j -= 1
-            if i <= j:
-                v[i], v[j] = v[j], v[i]
-                i += 1
-                j -= 1
-        if k <= j:
+    """Element ``k`` of ``v`` in order (as ``np.partition(v, k)[k]``); ``v`` is reordered.
+    Quickselect (median-of-three pivot) with branch-free partitions: below the pivot,
+    then equal to it (the data's order is unpredictable, so branches would mostly miss)."""
+    lo, hi = 0, v.shape[0]
+    while hi - lo > 1:
+        a, b, c = v[lo], v[(lo + hi) >> 1], v[hi - 1]
+        pivot = max(min(a, b), min(max(a, b), c))
+        j = lo
+        for i in range(lo, hi):
+            x = v[i]
+            v[i] = v[j]
+            v[j] = x
+            j += x < pivot
+        if k < j:
             hi = j
-        elif k >= i:
-            lo = i
-        else:
-            break
+            continue
+        e = j
+        for i in range(j, hi):
+            x = v[i]
+            v[i] = v[e]
+            v[e] = x
+            e += x == pivot
+        if k < e:
+            return pivot
+        lo = e
     return v[k]
 
 

@@ -40,7 +40,7 @@ from cell.vision._material_kernel import (
 )
 
 __all__ = ["MaterialFeatures", "classify_material", "classify_materials",
-           "features_from_statistics", "material_features"]
+           "features_from_statistics", "material_features", "materials_from_statistics"]
 
 _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
@@ -137,24 +137,50 @@ def features_from_statistics(
     variance = difference of the two variances, with its standard error.
     """
     means = stats[:, MEAN : MEAN + 3]
+    albedo = _albedo(means, belt_rgb_seen, belt_rgb)
+    return [
+        MaterialFeatures(mean_rgb=means[i], albedo=albedo[i], grain=grain, grain_z=z,
+                         clipped=1.0 - row[UNCLIPPED] / row[N], pixels=int(row[N]),
+                         grain_visibility=vis)
+        for i, (row, (grain, z, vis)) in enumerate(
+            zip(stats.tolist(), _grain(stats, noise_sigma), strict=True))
+    ]
+
+
+def materials_from_statistics(
+    stats: np.ndarray,
+    belt_rgb_seen: np.ndarray,
+    *,
+    belt_rgb: tuple[float, ...],
+    noise_sigma: float,
+    grain_metal: float,
+    grain_z_min: float,
+    albedo_sigma: float,
+) -> list[tuple[str, float]]:
+    """:func:`classify_materials` of :func:`features_from_statistics` (arguments as
+    there), without building the features."""
+    albedo = _albedo(stats[:, MEAN : MEAN + 3], belt_rgb_seen, belt_rgb)
+    return _labels(albedo, _grain(stats, noise_sigma), grain_metal, grain_z_min, albedo_sigma)
+
+
+def _albedo(means: np.ndarray, belt_rgb_seen: np.ndarray, belt_rgb: tuple[float, ...]):
+    """White-balanced albedo (P, 3): the mean colour over the belt's, times its reflectance."""
     albedo = means / np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
     albedo *= belt_rgb
+    return albedo
+
+
+def _grain(stats: np.ndarray, noise_sigma: float) -> list[tuple[float, float, float]]:
+    """(grain, grain_z, grain_visibility) of each statistics row (see MaterialFeatures)."""
+    floor = noise_sigma * _HIGHPASS_GAIN
     out = []
-    for i, row in enumerate(stats.tolist()):
-        n, m, norm, s_par = int(row[N]), int(row[KEPT]), row[NORM], row[S_PAR]
-        s_noise = math.sqrt(max(row[S_NOISE2], 0.0)) / 1.1774  # Rayleigh median
-        s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
+    for row in stats.tolist():
+        norm, s_par = row[NORM], row[S_PAR]
+        s_noise = max(math.sqrt(max(row[S_NOISE2], 0.0)) / 1.1774, floor)  # Rayleigh median
         grain_var = s_par**2 - s_noise**2
-        se = math.sqrt(2.0 / (0.37 * max(m, 1))) * (s_par**2 + s_noise**2) + 1e-9
-        out.append(MaterialFeatures(
-            mean_rgb=means[i],
-            albedo=albedo[i],
-            grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
-            grain_z=grain_var / se,
-            clipped=1.0 - row[UNCLIPPED] / n,
-            pixels=n,
-            grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
-        ))
+        se = math.sqrt(2.0 / (0.37 * max(row[KEPT], 1.0))) * (s_par**2 + s_noise**2) + 1e-9
+        out.append((math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
+                    grain_var / se, (0.05 * norm / math.sqrt(3)) ** 2 / se))
     return out
 
 
@@ -209,17 +235,24 @@ def classify_materials(
     """:func:`classify_material` of several parts (their albedo priors computed at once)."""
     if backlit or not features:
         return [("unknown", 0.0)] * len(features)
-    albedo = np.array([f.albedo for f in features])
+    return _labels(np.array([f.albedo for f in features]),
+                   [(f.grain, f.grain_z, f.grain_visibility) for f in features],
+                   grain_metal, grain_z_min, albedo_sigma)
+
+
+def _labels(albedo: np.ndarray, grain: list[tuple[float, float, float]], grain_metal: float,
+            grain_z_min: float, albedo_sigma: float) -> list[tuple[str, float]]:
+    """Labels of parts from their albedos (P, 3) and (grain, grain_z, grain_visibility)."""
     prior = _albedo_metal_probability(albedo, albedo_sigma).tolist()
     bright = (albedo.sum(axis=1) / 3 >= 0.25).tolist()  # the mean, as ndarray.mean divides
     out = []
-    for f, p, lit in zip(features, prior, bright, strict=True):
+    for (g, z, vis), p, lit in zip(grain, prior, bright, strict=True):
         # Albedo alone is never sure: specular light makes metal as bright as white plastic.
         p = min(max(p, 0.05), 0.95)
         odds = p / (1 - p)
-        if lit and f.grain >= grain_metal and f.grain_z >= grain_z_min:
+        if lit and g >= grain_metal and z >= grain_z_min:
             odds *= 50.0
-        elif lit and f.grain < 0.45 * grain_metal and f.grain_visibility >= 6.0:
+        elif lit and g < 0.45 * grain_metal and vis >= 6.0:
             odds *= 0.02
         p = odds / (1 + odds)
         out.append(("metal", p) if p >= 0.5 else ("plastic", 1 - p))

@@ -33,26 +33,29 @@ SUPPORT = 2  # px: how far the filters (3x3 mean, then 3x3 Sobel) read around a 
 # columns of a statistics row
 N, KEPT, MEAN, NORM, S_PAR, S_NOISE2, UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
 N_STATS = 9
+MEASURED, NO_BELT = 1, 2  # part states
 _FREE, _BELT = 0, 1  # columns of a belt row: free pixels, mean colour (3)
 _PAD = 2  # px of 255 each side of a ROI's rows, so the erosion need not test the row ends
 _MIN_FREE = 30  # fewer free pixels than this around a part: the belt is not measured
 
 
-def frame_statistics(img: np.ndarray, fg: np.ndarray, boxes: np.ndarray,
-                     masks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Statistics rows (P, N_STATS) and belt rows (P, 4: free pixels, mean RGB) of the
-    parts of a frame (see the module docstring).
+def frame_statistics(img: np.ndarray, fg: np.ndarray, boxes: np.ndarray, masks: np.ndarray,
+                     backlight_level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Statistics rows (P, N_STATS), belt rows (P, 4: free pixels, mean RGB) and states
+    (P,) of the parts of a frame (see the module docstring).
 
     ``img`` uint8 RGB (H, W, 3) and ``fg`` uint8 (H, W), C-contiguous; ``boxes`` int64
-    (P, 5): each part's ROI as x0, y0, height, width and its offset in ``masks``, the ROIs
-    (uint8, nonzero inside) flattened one after the other. A part whose interior has
-    fewer than 8 pixels gets ``N`` 0 and no other statistic; one with fewer than 30 free
-    pixels around it gets its free count and no belt colour.
+    (P, 4): each part's ROI as x0, y0, height, width; ``masks`` the ROIs (uint8, nonzero
+    inside) flattened one after the other. A part's state is ``MEASURED``; ``NO_BELT``
+    where fewer than 30 pixels around it are free (the belt's colour is left to the
+    caller); or 0: an interior under 8 pixels, or a belt at ``backlight_level`` or
+    brighter in every channel (a light table: the part is a silhouette).
     """
     stats = np.zeros((len(boxes), N_STATS))
     belts = np.zeros((len(boxes), 4))
-    _frame(img, fg, boxes, masks, stats, belts)
-    return stats, belts
+    state = np.zeros(len(boxes), np.int64)
+    _frame(img, fg, boxes, masks, float(backlight_level), stats, belts, state)
+    return stats, belts, state
 
 
 def patch_statistics(patch: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -69,15 +72,17 @@ def noise_sigma(img):  # pragma: no cover (compiled)
     """The frame's sensor noise (grey levels), as ``FrameView.noise_sigma`` estimates it:
     1.4826 * the MAD of the green channel's differences of pixels two apart on every
     16th row from row 4, over sqrt(2); upper medians, from a histogram."""
-    hist = np.zeros(511, np.int64)
-    total = 0
+    counts = np.zeros((4, 511), np.int32)  # four histograms in turn: equal differences in a
+    total = 0  # row do not wait on each other's count
     for y in range(4, img.shape[0], 16):
-        prev = np.int64(img[y, 0, 1])
-        for x in range(2, img.shape[1], 2):
-            cur = np.int64(img[y, x, 1])
-            hist[cur - prev + 255] += 1
-            prev = cur
-            total += 1
+        row = img[y]
+        m = (img.shape[1] - 1) // 2
+        for x in range(m):
+            counts[x & 3, np.int32(row[2 * x + 2, 1]) - np.int32(row[2 * x, 1]) + 255] += 1
+        total += m
+    hist = np.zeros(511, np.int64)
+    for d in range(511):
+        hist[d] = counts[0, d] + counts[1, d] + counts[2, d] + counts[3, d]
     half = total // 2 + 1
     med = _first_reaching(hist, half)
     dev = np.zeros(511, np.int64)
@@ -111,12 +116,14 @@ def _fma32(typingctx, a, b, c):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _frame(img, fg, boxes, masks, stats, belts):  # pragma: no cover (compiled)
+def _frame(img, fg, boxes, masks, level, stats, belts, state):  # pragma: no cover (compiled)
     p = SUPPORT
+    off = 0
     for i in range(boxes.shape[0]):
-        x0, y0, h, w, off = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4]
+        x0, y0, h, w = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
         roi = np.full((h, w + 2 * _PAD), 255, np.uint8)
         src = masks[off:]
+        off += h * w
         for y in range(h):
             row, dst = src[y * w :], roi[y, _PAD:]
             for x in range(w):
@@ -128,11 +135,15 @@ def _frame(img, fg, boxes, masks, stats, belts):  # pragma: no cover (compiled)
             n, ya, yb, xa, xb = _erode(roi, 1, across, sel)
             if n < 8:
                 continue
+        belt = belts[i]
+        _belt(img, fg, max(x0 - 6, 0), max(y0 - 6, 0), min(x0 + w + 6, img.shape[1]),
+              min(y0 + h + 6, img.shape[0]), belt)
+        if belt[_FREE] >= _MIN_FREE and min(belt[1], belt[2], belt[3]) >= level:
+            continue
+        state[i] = MEASURED if belt[_FREE] >= _MIN_FREE else NO_BELT
         ya, xa = max(ya - p, 0), max(xa - p, _PAD)
         yb, xb = min(yb + p, h), min(xb + p, w + _PAD)
         _statistics(img, y0, x0 - _PAD, sel, ya, yb, xa, xb, stats[i])
-        _belt(img, fg, max(x0 - 6, 0), max(y0 - 6, 0), min(x0 + w + 6, img.shape[1]),
-              min(y0 + h + 6, img.shape[0]), belts[i])
 
 
 @njit(cache=True)
@@ -392,6 +403,55 @@ def _select(v, k):  # pragma: no cover (compiled)
     return v[k]
 
 
+@njit(cache=True)
+def metal_prior(albedo, finishes, metal, sigma2):  # pragma: no cover (compiled)
+    """P(metal) (P,) of albedos (P, 3) from the finishes' albedos (K, 3) and whether each is
+    a metal (K,) bool: the share of the metals in the softmax of -d2 / 2, d2 the squared
+    distance over ``sigma2``; sums in numpy's order (``ndarray.sum``: pairwise in blocks
+    of 8), so the result is numpy's bit for bit."""
+    out = np.empty(albedo.shape[0])
+    n_k = finishes.shape[0]
+    d2 = np.empty(n_k)
+    w = np.empty(n_k)
+    metals = np.empty(n_k)
+    for q in range(albedo.shape[0]):
+        for k in range(n_k):
+            a = finishes[k, 0] - albedo[q, 0]
+            b = finishes[k, 1] - albedo[q, 1]
+            c = finishes[k, 2] - albedo[q, 2]
+            d2[k] = (a * a + b * b + c * c) / sigma2
+        low = d2.min()
+        m = 0
+        for k in range(n_k):
+            w[k] = math.exp(-(d2[k] - low) / 2)
+            if metal[k]:
+                metals[m] = w[k]
+                m += 1
+        out[q] = _numpy_sum(metals[:m]) / _numpy_sum(w)
+    return out
+
+
+@njit(cache=True)
+def _numpy_sum(v):  # pragma: no cover (compiled)
+    """``v.sum()`` of at most 128 values in numpy's order (pairwise_sum: under 8 values in
+    turn; else 8 running sums of every 8th value, added pairwise, then the rest in turn)."""
+    n = v.shape[0]
+    if n < 8:
+        s = -0.0
+        for i in range(n):
+            s += v[i]
+        return s
+    r = v[:8].copy()
+    top = n - n % 8
+    for i in range(8, top, 8):
+        for j in range(8):
+            r[j] += v[i + j]
+    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(top, n):
+        s += v[i]
+    return s
+
+
 def warm_up() -> None:
     """Load (or compile, on the very first run) the kernels, on a made-up frame with one
     part, so a detector's first frame is as fast as its others."""
@@ -399,7 +459,7 @@ def warm_up() -> None:
     fg = np.zeros((48, 64), np.uint8)
     roi = np.zeros((30, 30), np.uint8)
     roi[5:25, 5:25] = 255
-    boxes = np.array([[10, 8, 30, 30, 0]], np.int64)
-    frame_statistics(img, fg, boxes, roi.ravel())
+    frame_statistics(img, fg, np.array([[10, 8, 30, 30]], np.int64), roi.ravel(), 250)
     patch_statistics(img[:20, :20].copy(), np.ascontiguousarray(roi[5:25, 5:25]))
     noise_sigma(img)
+    metal_prior(np.full((1, 3), 0.5), np.eye(3), np.ones(3, np.bool_), 0.01)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from cell.vision._blob import Blob
-from cell.vision._material_kernel import N, frame_statistics, noise_sigma
+from cell.vision._material_kernel import MEASURED, NO_BELT, frame_statistics, noise_sigma
 from cell.vision._segment import FrameView
 from cell.vision.material import materials_from_statistics
 
@@ -33,23 +33,25 @@ def part_materials(view: FrameView, blobs: list[Blob]) -> list[tuple[str, float]
     have = [(i, b.roi) for i, b in enumerate(blobs) if b.roi is not None]
     if not have:
         return out
-    boxes = np.array([(x0, y0, *m.shape, m.size) for _, (x0, y0, m) in have], np.int64)
-    boxes[:, 4] = np.cumsum(boxes[:, 4]) - boxes[:, 4]  # each mask's offset in `masks`
+    boxes = np.array([(x0, y0, *m.shape) for _, (x0, y0, m) in have], np.int64)
     masks = np.concatenate([m.reshape(-1) for _, (_, _, m) in have])
-    stats, belts = frame_statistics(view.img, view.fg, boxes, masks)
     st = view.settings
-    measured = stats[:, N] > 0  # (an interior of 8 pixels or more)
-    for j in np.flatnonzero(measured & (belts[:, 0] < 30)).tolist():  # hardly any belt
-        x0, y0, h, w = boxes[j, :4].tolist()  # around: its estimate at the part's centre
-        u, v = min(x0 + w // 2, view.fg.shape[1] - 1), min(y0 + h // 2, view.fg.shape[0] - 1)
+    stats, belts, state = frame_statistics(view.img, view.fg, boxes, masks, st.backlight_level)
+    states = state.tolist()
+    for j in [j for j, s in enumerate(states) if s == NO_BELT]:  # hardly any belt around:
+        x0, y0, m = have[j][1]  # its estimate at the part's centre
+        u = min(x0 + m.shape[1] // 2, view.fg.shape[1] - 1)
+        v = min(y0 + m.shape[0] // 2, view.fg.shape[0] - 1)
         belts[j, 1:] = view.background_at(u, v, u + 1, v + 1)[0, 0]
-    # not on a glowing light table (a silhouette)
-    rows = np.flatnonzero(measured & (belts[:, 1:].min(axis=1) < st.backlight_level))
-    if not len(rows):
+        states[j] = MEASURED if min(belts[j, 1:].tolist()) < st.backlight_level else 0
+    rows = [j for j, s in enumerate(states) if s == MEASURED]
+    if not rows:
         return out
+    if len(rows) < len(states):
+        stats, belts = stats[rows], belts[rows]
     labels = materials_from_statistics(
-        stats[rows], belts[rows, 1:], belt_rgb=st.belt_rgb, noise_sigma=noise_sigma(view.img),
+        stats, belts[:, 1:], belt_rgb=st.belt_rgb, noise_sigma=noise_sigma(view.img),
         grain_metal=st.grain_metal, grain_z_min=st.grain_z_min, albedo_sigma=st.albedo_sigma)
-    for j, label in zip(rows.tolist(), labels, strict=True):
+    for j, label in zip(rows, labels, strict=True):
         out[have[j][0]] = label
     return out

@@ -36,6 +36,7 @@ from cell.vision._material_kernel import (
     S_PAR,
     UNCLIPPED,
     N,
+    metal_prior,
     patch_statistics,
 )
 
@@ -197,9 +198,8 @@ def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> np.ndarray:
 
     Metals' reference albedo is their colour times the grain's mean brightness.
     """
-    d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / sigma**2
-    w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
-    return w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1)
+    return metal_prior(np.ascontiguousarray(albedo, dtype=np.float64), _FINISH_ALBEDO,
+                       _FINISH_METAL, sigma**2)
 
 
 def classify_material(

@@ -191,3 +191,33 @@ def test_metal_prior_equals_numpy_softmax():
     w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
     want = w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1)
     assert np.array_equal(_albedo_metal_probability(albedo, 0.08), want)
+
+
+def _features(grain, grain_z, *, albedo=(0.9, 0.9, 0.88), even=0.25, pixels=400):
+    from cell.vision.material import MaterialFeatures
+
+    return MaterialFeatures(mean_rgb=np.zeros(3), albedo=np.array(albedo), grain=grain,
+                            grain_z=grain_z, clipped=0.0, pixels=pixels, grain_visibility=7.0,
+                            grain_pixels=int(even * pixels))
+
+
+def test_grain_evidence_does_not_jump_at_the_threshold():
+    """Clear grain just short of grain_z_min (one interior pixel more or less) still counts
+    nearly fully: a grainy part with a white plastic's albedo is metal either side."""
+    z_min = OPTS["grain_z_min"]
+    below = classify_material(_features(0.08, z_min - 0.02), backlit=False, **OPTS)
+    above = classify_material(_features(0.08, z_min + 0.02), backlit=False, **OPTS)
+    assert below[0] == above[0] == "metal"
+    assert abs(below[1] - above[1]) < 0.05
+
+
+def test_weak_grain_counts_only_with_strong_evidence_on_an_evenly_lit_surface():
+    """A metal under a specular spot: its grain reads below grain_metal; with strong evidence
+    on an evenly lit surface it is metal, not where directional light shades a thread."""
+    grain, z_min = 0.75 * OPTS["grain_metal"], OPTS["grain_z_min"]
+    weak = _features(grain, z_min + 1.0)
+    assert classify_material(weak, backlit=False, **OPTS)[0] == "metal"
+    shaded = _features(grain, z_min + 1.0, even=0.15)
+    assert classify_material(shaded, backlit=False, **OPTS)[0] == "plastic"
+    faint = _features(grain, z_min)  # weak grain needs more than grain_z_min
+    assert classify_material(faint, backlit=False, **OPTS)[0] == "plastic"

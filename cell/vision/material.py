@@ -264,7 +264,7 @@ def _labels(albedo: np.ndarray, grain: list[tuple[float, float, float, float]],
         if evidence > 0.0:
             odds *= _GRAIN_ODDS**evidence
         elif lit and g < 0.45 * grain_metal and vis >= 6.0:
-            odds /= _GRAIN_ODDS
+            odds *= 1.0 / _GRAIN_ODDS
         p = odds / (1 + odds)
         out.append(("metal", p) if p >= 0.5 else ("plastic", 1 - p))
     return out

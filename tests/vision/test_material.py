@@ -142,7 +142,7 @@ def test_patch_statistics_equal_opencv_pipeline(seed):
 def test_erosion_and_box_equal_cv2():
     import cv2
 
-    from cell.vision._material_kernel import _PAD, _erode
+    from cell.vision._part_material import _PAD, _erode
 
     rng = np.random.default_rng(1)
     for _ in range(500):
@@ -172,7 +172,7 @@ def test_select_equals_partition(dtype):
 
 
 def test_noise_estimate_equals_frame_view():
-    from cell.vision._material_kernel import noise_sigma
+    from cell.vision._part_material import noise_sigma
     from cell.vision._segment import FrameView
 
     rng = np.random.default_rng(3)

@@ -2,32 +2,41 @@
 
 Per part: the interior, away from the edge's blend with the belt (a 5x5 erosion of its
 mask ``Blob.roi``, or 3x3 where that leaves fewer than 150 pixels: a square nut's ring is
-4 px wide), and the belt's colour next to it, which white-balances its albedo (a part
-seen against a glowing light table is a silhouette: ``unknown``).
-
-Then all parts at once: each interior's bounding box and ``SUPPORT`` px around it (within
-the ROI) is laid out one below the other in a mosaic, each patch mirrored into a frame of
-``SUPPORT`` px (``cv2.BORDER_REFLECT_101``, as a filter sees a patch by itself), so the
-features' filters (:func:`cell.vision.material.mosaic_features`) run once per frame and
-give at each interior pixel what they give on that part's patch alone.
+4 px wide; as ``cv2.erode``'s default border, the erosion does not eat into the ROI's own
+edge), and the belt's colour next to it, the mean of the free pixels (``FrameView.fg`` not
+255) of the ROI's box and 6 px around it (``cv2.mean``: integer sums times 1/n), which
+white-balances its albedo (a part seen against a glowing light table is a silhouette:
+``unknown``). One compiled pass (:func:`frame_statistics`) measures every part, with the
+pixel statistics of :mod:`cell.vision._material_kernel`; the labels
+(:func:`cell.vision.material.materials_from_statistics`) follow for all parts at once.
 """
 
 from __future__ import annotations
 
-from itertools import accumulate
+import math
 
-import cv2
 import numpy as np
+from numba import njit
 
 from cell.vision._blob import Blob
+from cell.vision._material_kernel import (
+    N_STATS,
+    SUPPORT,
+    first_reaching,
+    metal_prior,
+    patch_statistics,
+    statistics,
+)
 from cell.vision._segment import FrameView
-from cell.vision.material import SUPPORT, classify_materials, mosaic_features
+from cell.vision.material import materials_from_statistics
 
 __all__: list[str] = []  # private to cell.vision
 
-_K3 = np.ones((3, 3), np.uint8)
-_K5 = np.ones((5, 5), np.uint8)
 _UNKNOWN = ("unknown", 0.0)
+MEASURED, NO_BELT = 1, 2  # part states
+_FREE, _BELT = 0, 1  # columns of a belt row: free pixels, mean colour (3)
+_PAD = 2  # px of 255 each side of a ROI's rows, so the erosion need not test the row ends
+_MIN_FREE = 30  # fewer free pixels than this around a part: the belt is not measured
 
 
 def part_materials(view: FrameView, blobs: list[Blob]) -> list[tuple[str, float]]:
@@ -37,69 +46,205 @@ def part_materials(view: FrameView, blobs: list[Blob]) -> list[tuple[str, float]
     out = [_UNKNOWN] * len(blobs)
     if view.backlit:
         return out
-    st = view.settings
-    found, patches, masks, counts, belts = [], [], [], [], []
-    for i, blob in enumerate(blobs):
-        if blob.roi is None:
-            continue
-        x0, y0, roi = blob.roi
-        sel = cv2.erode(roi, _K5)
-        n = cv2.countNonZero(sel)
-        if n < 150:
-            sel = cv2.erode(roi, _K3)
-            n = cv2.countNonZero(sel)
-            if n < 8:
-                continue
-        h, w = roi.shape
-        belt = _belt_near(view, x0, y0, x0 + w, y0 + h)
-        if min(belt.tolist()) >= st.backlight_level:
-            continue  # a glowing light table behind this part: a silhouette
-        # Only the interior's bounding box and SUPPORT px around it (within the ROI):
-        # the same features, on fewer pixels.
-        bx, by, bw, bh = cv2.boundingRect(sel)
-        xa, ya = max(bx - SUPPORT, 0), max(by - SUPPORT, 0)
-        xb, yb = min(bx + bw + SUPPORT, w), min(by + bh + SUPPORT, h)
-        found.append(i)
-        patches.append(view.img[y0 + ya : y0 + yb, x0 + xa : x0 + xb])
-        masks.append(sel[ya:yb, xa:xb])
-        counts.append(n)
-        belts.append(belt)
-    if not found:
+    have = [(i, b.roi) for i, b in enumerate(blobs) if b.roi is not None]
+    if not have:
         return out
-    mosaic, at = _mosaic(patches, masks)
-    feats = mosaic_features(mosaic, at, counts, np.array(belts), belt_rgb=st.belt_rgb,
-                            noise_sigma=view.noise_sigma())
-    labels = classify_materials(feats, backlit=False, grain_metal=st.grain_metal,
-                                grain_z_min=st.grain_z_min, albedo_sigma=st.albedo_sigma)
-    for i, label in zip(found, labels, strict=True):
-        out[i] = label
+    boxes = np.array([(x0, y0, *m.shape) for _, (x0, y0, m) in have], np.int64)
+    masks = np.concatenate([m.reshape(-1) for _, (_, _, m) in have])
+    st = view.settings
+    stats, belts, state = frame_statistics(view.img, view.fg, boxes, masks, st.backlight_level)
+    states = state.tolist()
+    for j in [j for j, s in enumerate(states) if s == NO_BELT]:  # hardly any belt around:
+        x0, y0, m = have[j][1]  # its estimate at the part's centre
+        u = min(x0 + m.shape[1] // 2, view.fg.shape[1] - 1)
+        v = min(y0 + m.shape[0] // 2, view.fg.shape[0] - 1)
+        belts[j, 1:] = view.background_at(u, v, u + 1, v + 1)[0, 0]
+        states[j] = MEASURED if min(belts[j, 1:].tolist()) < st.backlight_level else 0
+    rows = [j for j, s in enumerate(states) if s == MEASURED]
+    if not rows:
+        return out
+    if len(rows) < len(states):
+        stats, belts = stats[rows], belts[rows]
+    labels = materials_from_statistics(
+        stats, belts[:, 1:], belt_rgb=st.belt_rgb, noise_sigma=noise_sigma(view.img),
+        grain_metal=st.grain_metal, grain_z_min=st.grain_z_min, albedo_sigma=st.albedo_sigma)
+    for j, label in zip(rows, labels, strict=True):
+        out[have[j][0]] = label
     return out
 
 
-def _mosaic(patches: list[np.ndarray], masks: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The patches (uint8 (h, w, 3) each) one below the other, each mirrored SUPPORT px
-    into a frame around it (``cv2.BORDER_REFLECT_101``), and the flat indices of their
-    masks' (uint8 (h, w)) nonzero pixels there, patch after patch, each in row-major order."""
+def frame_statistics(img: np.ndarray, fg: np.ndarray, boxes: np.ndarray, masks: np.ndarray,
+                     backlight_level: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Statistics rows (P, N_STATS), belt rows (P, 4: free pixels, mean RGB) and states
+    (P,) of the parts of a frame (see the module docstring).
+
+    ``img`` uint8 RGB (H, W, 3) and ``fg`` uint8 (H, W), C-contiguous; ``boxes`` int64
+    (P, 4): each part's ROI as x0, y0, height, width; ``masks`` the ROIs (uint8, nonzero
+    inside) flattened one after the other. A part's state is ``MEASURED``; ``NO_BELT``
+    where fewer than 30 pixels around it are free (the belt's colour is left to the
+    caller); or 0: an interior under 8 pixels, or a belt at ``backlight_level`` or
+    brighter in every channel (a light table: the part is a silhouette).
+    """
+    stats = np.zeros((len(boxes), N_STATS))
+    belts = np.zeros((len(boxes), 4))
+    state = np.zeros(len(boxes), np.int64)
+    _frame(img, fg, boxes, masks, float(backlight_level), stats, belts, state)
+    return stats, belts, state
+
+
+@njit(cache=True)
+def noise_sigma(img):  # pragma: no cover (compiled)
+    """The frame's sensor noise (grey levels), as ``FrameView.noise_sigma`` estimates it:
+    1.4826 * the MAD of the green channel's differences of pixels two apart on every
+    16th row from row 4, over sqrt(2); upper medians, from a histogram."""
+    counts = np.zeros((4, 511), np.int32)  # four histograms in turn: equal differences in a
+    total = 0  # row do not wait on each other's count
+    for y in range(4, img.shape[0], 16):
+        row = img[y]
+        m = (img.shape[1] - 1) // 2
+        for x in range(m):
+            counts[x & 3, np.int32(row[2 * x + 2, 1]) - np.int32(row[2 * x, 1]) + 255] += 1
+        total += m
+    hist = np.zeros(511, np.int64)
+    for d in range(511):
+        hist[d] = counts[0, d] + counts[1, d] + counts[2, d] + counts[3, d]
+    half = total // 2 + 1
+    med = first_reaching(hist, half)
+    dev = np.zeros(511, np.int64)
+    for d in range(511):
+        dev[abs(d - med)] += hist[d]
+    return 1.4826 * first_reaching(dev, half) / math.sqrt(2)
+
+
+@njit(cache=True)
+def _frame(img, fg, boxes, masks, level, stats, belts, state):  # pragma: no cover (compiled)
     p = SUPPORT
-    tops = list(accumulate((m.shape[0] + 2 * p for m in masks), initial=0))
-    width = max(m.shape[1] for m in masks) + 2 * p
-    mosaic = np.zeros((tops[-1], width, 3), np.uint8)
-    inside = np.zeros((tops[-1], width), bool)  # (np.flatnonzero is fastest on bool)
-    for patch, mask, top in zip(patches, masks, tops, strict=False):
-        h, w = mask.shape
-        cv2.copyMakeBorder(patch, p, p, p, p, cv2.BORDER_REFLECT_101,
-                           dst=mosaic[top : top + h + 2 * p, : w + 2 * p])
-        inside[top + p : top + p + h, p : p + w] = mask
-    return mosaic, np.flatnonzero(inside)
+    off = 0
+    for i in range(boxes.shape[0]):
+        x0, y0, h, w = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
+        roi = np.full((h, w + 2 * _PAD), 255, np.uint8)
+        src = masks[off:]
+        off += h * w
+        for y in range(h):
+            row, dst = src[y * w :], roi[y, _PAD:]
+            for x in range(w):
+                dst[x] = row[x]
+        sel = np.empty_like(roi)
+        across = np.empty_like(roi)
+        n, ya, yb, xa, xb = _erode(roi, 2, across, sel)
+        if n < 150:
+            n, ya, yb, xa, xb = _erode(roi, 1, across, sel)
+            if n < 8:
+                continue
+        belt = belts[i]
+        _belt(img, fg, max(x0 - 6, 0), max(y0 - 6, 0), min(x0 + w + 6, img.shape[1]),
+              min(y0 + h + 6, img.shape[0]), belt)
+        if belt[_FREE] >= _MIN_FREE and min(belt[1], belt[2], belt[3]) >= level:
+            continue
+        state[i] = MEASURED if belt[_FREE] >= _MIN_FREE else NO_BELT
+        ya, xa = max(ya - p, 0), max(xa - p, _PAD)
+        yb, xb = min(yb + p, h), min(xb + p, w + _PAD)
+        statistics(img, y0, x0 - _PAD, sel, ya, yb, xa, xb, stats[i])
 
 
-def _belt_near(view: FrameView, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-    """The belt's colour next to a part: the mean of the background pixels in a window
-    around it (the median-filtered estimate is biased near a part in a noisy frame)."""
-    h, w = view.fg.shape
-    xa, ya, xb, yb = max(x0 - 6, 0), max(y0 - 6, 0), min(x1 + 6, w), min(y1 + 6, h)
-    free = cv2.bitwise_not(view.fg[ya:yb, xa:xb])
-    if cv2.countNonZero(free) < 30:
-        u, v = min((x0 + x1) // 2, w - 1), min((y0 + y1) // 2, h - 1)
-        return view.background_at(u, v, u + 1, v + 1)[0, 0]
-    return np.array(cv2.mean(view.img[ya:yb, xa:xb], mask=free)[:3])
+@njit(cache=True)
+def _erode(roi, r, across, out):  # pragma: no cover (compiled)
+    """``out`` = ``roi`` eroded by a (2r+1)-square (r = 1 or 2), separably (rows, then
+    columns, through ``across``): nonzero where the whole square is, rows beyond
+    ``roi``'s counting as nonzero and its first and last ``_PAD`` >= r columns being 255
+    (so the erosion does not eat into the ROI's own edge, as ``cv2.erode``'s default
+    border). Returns the count of nonzero pixels in the other columns (the pad's are
+    cleared) and their bounding box: rows [ya, yb), columns [xa, xb)."""
+    h, wp = roi.shape
+    size = h * wp
+    src, acr, dst = roi.reshape(-1), across.reshape(-1), out.reshape(-1)
+    for i in range(r):  # (pad columns: never read for the ROI's own)
+        acr[i] = acr[size - 1 - i] = 0
+    if r == 2:
+        a, s0, s1, s2, s3, s4 = acr[2:], src[: size - 4], src[1:], src[2:], src[3:], src[4:]
+        for i in range(size - 4):
+            a[i] = min(min(min(s0[i], s1[i]), min(s2[i], s3[i])), s4[i])
+    else:
+        a, s0, s1, s2 = acr[1:], src[: size - 2], src[1:], src[2:]
+        for i in range(size - 2):
+            a[i] = min(min(s0[i], s1[i]), s2[i])
+    if h > 2 * r:  # rows with all 2r + 1 rows of the square in the ROI
+        k = r * wp
+        m = size - 2 * k
+        if r == 2:
+            d, t0, t1, t2, t3, t4 = dst[k:], acr[:m], acr[wp:], acr[k:], acr[k + wp :], acr[2 * k :]
+            for i in range(m):
+                d[i] = min(min(min(t0[i], t1[i]), min(t2[i], t3[i])), t4[i])
+        else:
+            d, t0, t1, t2 = dst[k:], acr[:m], acr[k:], acr[2 * k :]
+            for i in range(m):
+                d[i] = min(min(t0[i], t1[i]), t2[i])
+    for y in range(h):  # the first and last r rows: the square clipped to the ROI
+        if r <= y < h - r:
+            continue
+        d = dst[y * wp :]
+        for x in range(wp):
+            d[x] = 255
+        for v in range(max(y - r, 0), min(y + r + 1, h)):
+            t = acr[v * wp :]
+            for x in range(wp):
+                d[x] = min(d[x], t[x])
+    for y in range(h):
+        for x in range(_PAD):
+            out[y, x] = out[y, wp - 1 - x] = 0
+    n = np.uint32(0)
+    for i in range(size):
+        n += dst[i] != 0
+    if n == 0:
+        return 0, 0, 0, 0, 0
+    first, last = 0, size - 1
+    while dst[first] == 0:
+        first += 1
+    while dst[last] == 0:
+        last -= 1
+    ya, yb = first // wp, last // wp + 1
+    cols = np.zeros(wp, np.uint8)
+    for y in range(ya, yb):
+        row = dst[y * wp :]
+        for x in range(wp):
+            cols[x] = max(cols[x], row[x])
+    xa, xb = wp, 0
+    for x in range(wp):
+        if cols[x]:
+            xa, xb = min(xa, x), x + 1
+    return n, ya, yb, xa, xb
+
+
+@njit(cache=True)
+def _belt(img, fg, xa, ya, xb, yb, out):  # pragma: no cover (compiled)
+    """Free pixels of the window and, from ``_MIN_FREE`` of them, their mean colour."""
+    pix, free = img.reshape(-1), fg.reshape(-1)
+    stride, w = img.shape[1], xb - xa
+    s0 = s1 = s2 = n = 0
+    for y in range(ya, yb):
+        row, f = pix[3 * (y * stride + xa) :], free[y * stride + xa :]
+        t0 = t1 = t2 = c = np.uint32(0)
+        for x in range(w):
+            m = np.uint32(f[x] != 255)
+            t0 += row[3 * x] * m
+            t1 += row[3 * x + 1] * m
+            t2 += row[3 * x + 2] * m
+            c += m
+        s0, s1, s2, n = s0 + t0, s1 + t1, s2 + t2, n + c
+    out[_FREE] = n
+    if n >= _MIN_FREE:
+        scale = 1.0 / n
+        out[_BELT], out[_BELT + 1], out[_BELT + 2] = s0 * scale, s1 * scale, s2 * scale
+
+
+def warm_up() -> None:
+    """Load (or compile, on the very first run) the kernels, on a made-up frame with one
+    part, so a detector's first frame is as fast as its others."""
+    img = np.full((48, 64, 3), 120, np.uint8)
+    fg = np.zeros((48, 64), np.uint8)
+    roi = np.zeros((30, 30), np.uint8)
+    roi[5:25, 5:25] = 255
+    frame_statistics(img, fg, np.array([[10, 8, 30, 30]], np.int64), roi.ravel(), 250)
+    patch_statistics(img[:20, :20].copy(), np.ascontiguousarray(roi[5:25, 5:25]))
+    noise_sigma(img)
+    metal_prior(np.full((1, 3), 0.5), np.eye(3), np.ones(3, np.bool_), 0.01)

@@ -23,20 +23,31 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from itertools import accumulate
 
-import cv2
 import numpy as np
 
 from cell.catalogue import MATERIALS
 from cell.errors import VisionError
+from cell.vision._material_kernel import (
+    KEPT,
+    MEAN,
+    NORM,
+    S_NOISE2,
+    S_PAR,
+    UNCLIPPED,
+    N,
+    metal_prior,
+    patch_statistics,
+)
 
-__all__ = ["SUPPORT", "MaterialFeatures", "classify_material", "classify_materials",
-           "material_features", "mosaic_features"]
+__all__ = ["MaterialFeatures", "classify_material", "classify_materials",
+           "features_from_statistics", "material_features", "materials_from_statistics"]
 
 _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
-SUPPORT = 2  # px: how far the features' filters (3x3 mean, then 3x3 Sobel) read around a pixel
+_GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
+_SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
+_WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.2  # weak grain: see _grain_evidence
 
 
 @dataclass(frozen=True)
@@ -50,7 +61,9 @@ class MaterialFeatures:
     the fraction of saturated pixels; ``pixels`` how many pixels were used;
     ``grain_visibility`` how many standard errors a metal's grain (5 % of the brightness)
     would stand above the noise here: where it is small (dim, noisy, tiny), the absence of
-    grain says nothing.
+    grain says nothing; ``grain_pixels`` how many of the pixels the grain was measured on
+    (the flatter, lit ones: about a quarter of an evenly lit surface, fewer under
+    directional light).
     """
 
     mean_rgb: np.ndarray
@@ -60,6 +73,7 @@ class MaterialFeatures:
     clipped: float
     pixels: int
     grain_visibility: float = 0.0
+    grain_pixels: int = 0
 
 
 def material_features(
@@ -84,8 +98,11 @@ def material_features(
 
     The grain is measured on the high-pass residual (pixel minus its 3x3 mean), so smooth
     shading across a face does not count, with robust (median-based) scales, so the few
-    pixels on a wall's edge do not count either. The filters see the patch mirrored at its
-    border (``cv2.BORDER_REFLECT_101``): :func:`mosaic_features` on the patch padded so.
+    pixels on a wall's edge do not count either; only the flatter, lit half of the part's
+    pixels is used (shading, a bolt's curved flank or an edge lit at a grazing angle,
+    leaves a high-pass residual too, but shows in the gradient of the smoothed grey).
+    The filters see the patch mirrored at its border (``cv2.BORDER_REFLECT_101``); the
+    pixel statistics are :func:`cell.vision._material_kernel.patch_statistics`'.
     """
     if not isinstance(patch, np.ndarray) or patch.ndim != 3 or patch.shape[2] != 3:
         raise VisionError(f"material_features: argument 'patch' must be (H, W, 3), got "
@@ -94,131 +111,86 @@ def material_features(
     if mask.shape != patch.shape[:2]:
         raise VisionError(f"material_features: argument 'mask' must be {patch.shape[:2]}, "
                           f"got {mask.shape}")
-    m8 = mask.view(np.uint8)
-    n = cv2.countNonZero(m8)
+    n = int(np.count_nonzero(mask))
     if n < 8:
         raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
     if patch.dtype != np.uint8:
         patch = np.clip(patch, 0, 255).astype(np.uint8)
-    p = SUPPORT
-    padded = cv2.copyMakeBorder(np.ascontiguousarray(patch), p, p, p, p, cv2.BORDER_REFLECT_101)
-    at = np.flatnonzero(np.pad(mask, p))
-    return mosaic_features(padded, at, [n], np.asarray(belt_rgb_seen, dtype=np.float64)[None],
-                           belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
+    stats = patch_statistics(np.ascontiguousarray(patch),
+                             np.ascontiguousarray(mask.view(np.uint8)))
+    return features_from_statistics(stats[None], np.asarray(belt_rgb_seen, np.float64)[None],
+                                    belt_rgb=belt_rgb, noise_sigma=noise_sigma)[0]
 
 
-def mosaic_features(
-    img: np.ndarray,
-    at: np.ndarray,
-    counts: list[int],
+def features_from_statistics(
+    stats: np.ndarray,
     belt_rgb_seen: np.ndarray,
     *,
     belt_rgb: tuple[float, ...],
     noise_sigma: float = 0.0,
 ) -> list[MaterialFeatures]:
-    """Grain and albedo features of several parts whose patches share one image.
+    """Grain and albedo features of parts from their pixel statistics.
 
     Parameters
     ----------
-    img : (H, W, 3) uint8 RGB, a mosaic of the parts' patches. The features' filters (3x3
-        mean, then 3x3 Sobel) read ``SUPPORT`` px around each part pixel, so what lies
-        there must be that part's patch: its pixels in the frame, or the patch mirrored
-        (``cv2.BORDER_REFLECT_101``) where it ends.
-    at : (N,) int, the parts' pixels as flat indices into ``img``'s rows and columns,
-        part after part, each part's in row-major order.
-    counts : how many of ``at`` each part has (at least 8 each).
+    stats : (P, N_STATS) float, rows of :mod:`cell.vision._material_kernel`: pixels,
+        pixels kept for the grain, mean RGB, its length, the scales of the residual along
+        and across the mean colour, unclipped pixels.
     belt_rgb_seen : (P, 3) the belt's colour next to each part (grey levels).
     belt_rgb, noise_sigma : as for :func:`material_features`.
 
-    The filters run once over the whole mosaic, the robust statistics (``ndarray.partition``)
-    on each part's run of pixels.
+    Grain and noise: the residual's component along the part's colour holds grain +
+    noise, its length across only noise (Rayleigh: median = 1.1774 sigma); grain
+    variance = difference of the two variances, with its standard error.
     """
-    img = np.ascontiguousarray(img)
-    starts = list(accumulate(counts[:-1], initial=0))
-    pix = img.reshape(-1, 3).take(at, axis=0)
-    means = np.add.reduceat(pix, starts, axis=0, dtype=np.float64)
-    means *= [[1.0 / n] for n in counts]  # the integer sums times 1/n, as cv2.mean scales
-    # Grain is measured where the surface is flat: shading (a bolt's curved flank, an edge
-    # lit at a grazing angle) leaves a high-pass residual too, but varies smoothly, so it
-    # shows in the gradient of the smoothed image; the flatter half of the part is kept.
-    grey = cv2.blur(cv2.cvtColor(img, cv2.COLOR_RGB2GRAY), (3, 3))
-    slope, gy = (g.reshape(-1).take(at).astype(np.int32) for g in cv2.spatialGradient(grey))
-    slope *= slope
-    gy *= gy
-    slope += gy  # the 3x3 Sobel's (cv2.Sobel's) squared length: exact integers
-    lit = grey.reshape(-1).take(at)
-    slope_q = _upper_medians(slope.copy(), starts, counts)
-    lit_q = _upper_medians(lit.copy(), starts, counts)
-    flat = slope <= np.repeat(slope_q, counts)
-    flat &= lit >= np.repeat(lit_q, counts)  # and the lit half: off the shadow terminator
-    # the high-pass residual (pixel less its 3x3 mean) there only
-    kept = np.flatnonzero(flat)
-    local = cv2.blur(img, (3, 3)).reshape(-1, 3).take(at.take(kept), axis=0)
-    resid = cv2.subtract(pix.take(kept, axis=0), local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
-    kept_n = np.add.reduceat(flat, starts, dtype=np.intp).tolist()
-    norms = [math.sqrt(m @ m) for m in means]
-    if min(norms) > 1e-6:
-        units = means / np.array(norms)[:, None]
-    else:  # a black part: any direction will do
-        units = np.array([m / r if r > 1e-6 else np.full(3, 1 / math.sqrt(3))
-                          for m, r in zip(means, norms, strict=True)])
-    par, orth2 = _along_and_across(resid, units.astype(np.float32), kept_n)
-    stats = _robust_scales(par, orth2, kept_n)
-    unclipped = cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)).reshape(-1)
-    unclipped = np.add.reduceat(unclipped, starts, dtype=np.intp).tolist()
+    means = stats[:, MEAN : MEAN + 3]
+    albedo = _albedo(means, belt_rgb_seen, belt_rgb)
+    return [
+        MaterialFeatures(mean_rgb=means[i], albedo=albedo[i], grain=grain, grain_z=z,
+                         clipped=1.0 - row[UNCLIPPED] / row[N], pixels=int(row[N]),
+                         grain_visibility=vis, grain_pixels=int(row[KEPT]))
+        for i, (row, (grain, z, vis, _)) in enumerate(
+            zip(stats.tolist(), _grain(stats, noise_sigma), strict=True))
+    ]
+
+
+def materials_from_statistics(
+    stats: np.ndarray,
+    belt_rgb_seen: np.ndarray,
+    *,
+    belt_rgb: tuple[float, ...],
+    noise_sigma: float,
+    grain_metal: float,
+    grain_z_min: float,
+    albedo_sigma: float,
+) -> list[tuple[str, float]]:
+    """:func:`classify_materials` of :func:`features_from_statistics` (arguments as
+    there), without building the features."""
+    albedo = _albedo(stats[:, MEAN : MEAN + 3], belt_rgb_seen, belt_rgb)
+    return _labels(albedo, _grain(stats, noise_sigma), grain_metal, grain_z_min, albedo_sigma)
+
+
+def _albedo(means: np.ndarray, belt_rgb_seen: np.ndarray, belt_rgb: tuple[float, ...]):
+    """White-balanced albedo (P, 3): the mean colour over the belt's, times its reflectance."""
     albedo = means / np.maximum(np.asarray(belt_rgb_seen, dtype=np.float64), 1.0)
     albedo *= belt_rgb
+    return albedo
+
+
+def _grain(stats: np.ndarray, noise_sigma: float) -> list[tuple[float, float, float, float]]:
+    """(grain, grain_z, grain_visibility, grain_pixels / pixels) of each statistics row (see
+    MaterialFeatures)."""
+    floor = noise_sigma * _HIGHPASS_GAIN
     out = []
-    for i, (n, m, norm, (s_par, s_noise2)) in enumerate(zip(counts, kept_n, norms, stats, strict=True)):
-        s_noise = math.sqrt(max(s_noise2, 0.0)) / 1.1774  # Rayleigh median
-        s_noise = max(s_noise, noise_sigma * _HIGHPASS_GAIN)
+    for row in stats.tolist():
+        norm, s_par = row[NORM], row[S_PAR]
+        s_noise = max(math.sqrt(max(row[S_NOISE2], 0.0)) / 1.1774, floor)  # Rayleigh median
         grain_var = s_par**2 - s_noise**2
-        se = math.sqrt(2.0 / (0.37 * max(m, 1))) * (s_par**2 + s_noise**2) + 1e-9
-        out.append(MaterialFeatures(
-            mean_rgb=means[i],
-            albedo=albedo[i],
-            grain=math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
-            grain_z=grain_var / se,
-            clipped=1.0 - unclipped[i] / (255 * n),  # = count / n: the same quotient
-            pixels=n,
-            grain_visibility=(0.05 * norm / math.sqrt(3)) ** 2 / se,
-        ))
+        se = math.sqrt(2.0 / (0.37 * max(row[KEPT], 1.0))) * (s_par**2 + s_noise**2) + 1e-9
+        out.append((math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
+                    grain_var / se, (0.05 * norm / math.sqrt(3)) ** 2 / se,
+                    row[KEPT] / row[N]))
     return out
-
-
-def _upper_medians(values: np.ndarray, starts: list[int], counts: list[int]) -> np.ndarray:
-    """Element ``n // 2`` in order (``ndarray.partition``) of each run of ``values``; the
-    runs are partitioned in place."""
-    out = np.empty(len(counts), values.dtype)
-    for i, (s, n) in enumerate(zip(starts, counts, strict=True)):
-        run = values[s : s + n]
-        run.partition(n // 2)
-        out[i] = run[n // 2]
-    return out
-
-
-def _along_and_across(resid: np.ndarray, units: np.ndarray, counts: list[int]):
-    """The residuals' (M, 1, 3) float32 component along their part's colour direction
-    (``units`` (P, 3), ``cv2.transform`` part by part) and squared length across it."""
-    par = np.empty(len(resid), np.float32)
-    s = 0
-    for i, n in enumerate(counts):
-        cv2.transform(resid[s : s + n], units[i : i + 1], dst=par[s : s + n].reshape(-1, 1))
-        s += n
-    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1)
-    orth2 -= par * par
-    return par, orth2
-
-
-def _robust_scales(par: np.ndarray, orth2: np.ndarray, counts: list[int]) -> list[tuple]:
-    """Per run of ``counts``: (1.4826 * the MAD of ``par``, the upper median of ``orth2``),
-    as Python floats; medians are element ``n // 2`` in order (``ndarray.partition``)."""
-    starts = list(accumulate(counts[:-1], initial=0))
-    meds = _upper_medians(par, starts, counts)  # in place: only each run's values count
-    dev = np.abs(par - np.repeat(meds, counts))
-    mads = _upper_medians(dev, starts, counts).tolist()
-    return [(1.4826 * a, b)
-            for a, b in zip(mads, _upper_medians(orth2, starts, counts).tolist(), strict=True)]
 
 
 _FINISH_ALBEDO = np.array([
@@ -234,9 +206,8 @@ def _albedo_metal_probability(albedo: np.ndarray, sigma: float) -> np.ndarray:
 
     Metals' reference albedo is their colour times the grain's mean brightness.
     """
-    d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / sigma**2
-    w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
-    return w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1)
+    return metal_prior(np.ascontiguousarray(albedo, dtype=np.float64), _FINISH_ALBEDO,
+                       _FINISH_METAL, sigma**2)
 
 
 def classify_material(
@@ -272,18 +243,49 @@ def classify_materials(
     """:func:`classify_material` of several parts (their albedo priors computed at once)."""
     if backlit or not features:
         return [("unknown", 0.0)] * len(features)
-    albedo = np.array([f.albedo for f in features])
+    return _labels(np.array([f.albedo for f in features]),
+                   [(f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1))
+                    for f in features],
+                   grain_metal, grain_z_min, albedo_sigma)
+
+
+def _labels(albedo: np.ndarray, grain: list[tuple[float, float, float, float]],
+            grain_metal: float, grain_z_min: float, albedo_sigma: float) -> list[tuple[str, float]]:
+    """Labels of parts from their albedos (P, 3) and (grain, grain_z, grain_visibility,
+    even-light fraction)."""
     prior = _albedo_metal_probability(albedo, albedo_sigma).tolist()
     bright = (albedo.sum(axis=1) / 3 >= 0.25).tolist()  # the mean, as ndarray.mean divides
     out = []
-    for f, p, lit in zip(features, prior, bright, strict=True):
+    for (g, z, vis, even), p, lit in zip(grain, prior, bright, strict=True):
         # Albedo alone is never sure: specular light makes metal as bright as white plastic.
         p = min(max(p, 0.05), 0.95)
         odds = p / (1 - p)
-        if lit and f.grain >= grain_metal and f.grain_z >= grain_z_min:
-            odds *= 50.0
-        elif lit and f.grain < 0.45 * grain_metal and f.grain_visibility >= 6.0:
-            odds *= 0.02
+        evidence = _grain_evidence(g, z, even, grain_metal, grain_z_min) if lit else 0.0
+        if evidence > 0.0:
+            odds *= _GRAIN_ODDS**evidence
+        elif lit and g < 0.45 * grain_metal and vis >= 6.0:
+            odds *= 1.0 / _GRAIN_ODDS
         p = odds / (1 + odds)
         out.append(("metal", p) if p >= 0.5 else ("plastic", 1 - p))
     return out
+
+
+def _grain_evidence(grain: float, z: float, even: float, grain_metal: float,
+                    grain_z_min: float) -> float:
+    """How much of the grain's full weight (0..1) a part's grain carries.
+
+    Full from ``grain_metal`` and ``grain_z_min``; over the last ``_SOFT_Z`` standard
+    errors below that it rises linearly, so one pixel more or less in the interior does not
+    flip a label. A weaker grain, down to ``_WEAK`` * ``grain_metal`` (a metal under a
+    specular spot: its mean brightness rises, the grain does not), counts where the
+    evidence is the stronger for it, ``_Z_PER_DEFICIT`` standard errors more at half
+    ``grain_metal``, and only on an evenly lit surface (at least ``_EVEN`` of its pixels
+    flat and lit: under directional light the shading of a thread passes for weak grain).
+    """
+    if grain >= grain_metal:
+        need = grain_z_min
+    elif grain >= _WEAK * grain_metal and even >= _EVEN:
+        need = grain_z_min + _Z_PER_DEFICIT * (1.0 - grain / grain_metal)
+    else:
+        return 0.0
+    return min(max((z - need) / _SOFT_Z + 1.0, 0.0), 1.0)

@@ -89,3 +89,135 @@ def test_bad_input_names_the_argument():
         material_features(patch, mask[:5], belt, belt_rgb=BELT)
     with pytest.raises(VisionError, match="mask"):
         material_features(patch, np.zeros_like(mask), belt, belt_rgb=BELT)
+
+
+# The compiled statistics reproduce the OpenCV pipeline they replace, bit for bit.
+
+def _opencv_statistics(patch: np.ndarray, mask: np.ndarray) -> list[float]:
+    """The statistics row of patch_statistics, computed with OpenCV and numpy."""
+    import cv2
+
+    pad = cv2.copyMakeBorder(patch, 2, 2, 2, 2, cv2.BORDER_REFLECT_101)
+    at = np.flatnonzero(np.pad(mask, 2))
+    n = len(at)
+    pix = pad.reshape(-1, 3)[at]
+    means = pix.sum(axis=0, dtype=np.float64) * (1.0 / n)
+    grey = cv2.blur(cv2.cvtColor(pad, cv2.COLOR_RGB2GRAY), (3, 3))
+    gx, gy = (g.reshape(-1)[at].astype(np.int32) for g in cv2.spatialGradient(grey))
+    slope = gx * gx + gy * gy
+    lit = grey.reshape(-1)[at]
+    flat = (slope <= np.partition(slope, n // 2)[n // 2]) & (lit >= np.partition(lit, n // 2)[n // 2])
+    local = cv2.blur(pad, (3, 3)).reshape(-1, 3)[at[flat]]
+    resid = cv2.subtract(pix[flat], local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
+    norm = float(np.sqrt(means @ means))
+    unit = (means / norm if norm > 1e-6 else np.full(3, 1 / np.sqrt(3))).astype(np.float32)
+    par = cv2.transform(resid, unit[None]).reshape(-1)
+    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1) - par * par
+    m = len(par)
+    med = np.partition(par, m // 2)[m // 2]
+    mad = np.partition(np.abs(par - med), m // 2)[m // 2]
+    unclipped = int(np.count_nonzero((pix <= 253).all(axis=1)))
+    return [n, m, *means, norm, 1.4826 * float(mad), float(np.partition(orth2, m // 2)[m // 2]),
+            unclipped]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_patch_statistics_equal_opencv_pipeline(seed):
+    from cell.vision._material_kernel import patch_statistics
+
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(1, 40, 2) if seed % 4 else rng.integers(8, 12, 2)
+    base = rng.integers(0, 256, 3)
+    noise = rng.integers(0, 40 if seed % 3 else 4)  # few levels: many ties in the medians
+    patch = np.clip(base + rng.integers(-noise, noise + 1, (h, w, 3)), 0, 255).astype(np.uint8)
+    mask = rng.random((h, w)) < rng.uniform(0.3, 1.0)
+    if mask.sum() < 8:
+        mask[:] = True
+    if mask.sum() < 8:
+        pytest.skip("patch under 8 pixels")
+    got = patch_statistics(patch, mask.view(np.uint8))
+    assert got.tolist() == _opencv_statistics(patch, mask)
+
+
+def test_erosion_and_box_equal_cv2():
+    import cv2
+
+    from cell.vision._part_material import _PAD, _erode
+
+    rng = np.random.default_rng(1)
+    for _ in range(500):
+        h, w = rng.integers(1, 30, 2)
+        roi = ((rng.random((h, w)) < rng.uniform(0.2, 1.3)) * 255).astype(np.uint8)
+        padded = np.full((h, w + 2 * _PAD), 255, np.uint8)
+        padded[:, _PAD:-_PAD] = roi
+        for r in (1, 2):
+            out = np.empty_like(padded)
+            n, ya, yb, xa, xb = _erode(padded, r, np.empty_like(padded), out)
+            want = cv2.erode(roi, np.ones((2 * r + 1, 2 * r + 1), np.uint8))
+            assert np.array_equal(out[:, _PAD:-_PAD] != 0, want != 0)
+            assert n == np.count_nonzero(want)
+            if n:
+                assert (xa - _PAD, ya, xb - xa, yb - ya) == cv2.boundingRect(want)
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.float32])
+def test_select_equals_partition(dtype):
+    from cell.vision._material_kernel import _select
+
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        v = (rng.integers(-5, 6, rng.integers(1, 300)) * rng.choice([1, 0.37])).astype(dtype)
+        k = int(rng.integers(0, len(v)))
+        assert _select(v.copy(), k) == np.partition(v, k)[k]
+
+
+def test_noise_estimate_equals_frame_view():
+    from cell.vision._part_material import noise_sigma
+    from cell.vision._segment import FrameView
+
+    rng = np.random.default_rng(3)
+    for h, w in [(16, 16), (17, 33), (120, 161)]:
+        img = np.clip(100 + rng.normal(0, 4, (h, w, 3)), 0, 255).astype(np.uint8)
+        view = FrameView(img, None, None, None, 0, 0, False, None, None, 0, 0)
+        assert noise_sigma(img) == view.noise_sigma()
+
+
+def test_metal_prior_equals_numpy_softmax():
+    from cell.vision.material import _FINISH_ALBEDO, _FINISH_METAL, _albedo_metal_probability
+
+    rng = np.random.default_rng(4)
+    albedo = rng.random((50, 3))
+    d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / 0.08**2
+    w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
+    want = w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1)
+    assert np.array_equal(_albedo_metal_probability(albedo, 0.08), want)
+
+
+def _features(grain, grain_z, *, albedo=(0.9, 0.9, 0.88), even=0.25, pixels=400):
+    from cell.vision.material import MaterialFeatures
+
+    return MaterialFeatures(mean_rgb=np.zeros(3), albedo=np.array(albedo), grain=grain,
+                            grain_z=grain_z, clipped=0.0, pixels=pixels, grain_visibility=7.0,
+                            grain_pixels=int(even * pixels))
+
+
+def test_grain_evidence_does_not_jump_at_the_threshold():
+    """Clear grain just short of grain_z_min (one interior pixel more or less) still counts
+    nearly fully: a grainy part with a white plastic's albedo is metal either side."""
+    z_min = OPTS["grain_z_min"]
+    below = classify_material(_features(0.08, z_min - 0.02), backlit=False, **OPTS)
+    above = classify_material(_features(0.08, z_min + 0.02), backlit=False, **OPTS)
+    assert below[0] == above[0] == "metal"
+    assert abs(below[1] - above[1]) < 0.05
+
+
+def test_weak_grain_counts_only_with_strong_evidence_on_an_evenly_lit_surface():
+    """A metal under a specular spot: its grain reads below grain_metal; with strong evidence
+    on an evenly lit surface it is metal, not where directional light shades a thread."""
+    grain, z_min = 0.75 * OPTS["grain_metal"], OPTS["grain_z_min"]
+    weak = _features(grain, z_min + 1.0)
+    assert classify_material(weak, backlit=False, **OPTS)[0] == "metal"
+    shaded = _features(grain, z_min + 1.0, even=0.15)
+    assert classify_material(shaded, backlit=False, **OPTS)[0] == "plastic"
+    faint = _features(grain, z_min)  # weak grain needs more than grain_z_min
+    assert classify_material(faint, backlit=False, **OPTS)[0] == "plastic"

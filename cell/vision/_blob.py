@@ -163,7 +163,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
     pixels (uint8 0/255, its window's shape) as ``roi``."""
     h, w = shape
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
+    box_of = [mos.which(int(cs[j][0, 0, 0])) for j in outer]
     n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     labels: dict[int, np.ndarray] = {}

@@ -1,0 +1,370 @@
+"""Compiled steps of the segmentation (numba), each the exact integer arithmetic of the
+OpenCV call it replaces, so the detector's answers do not change:
+
+* ``cv2.copyMakeBorder`` (``BORDER_REFLECT_101``) + ``cv2.medianBlur`` 15x15 of the 1/8-scale
+  frame: a sliding-histogram median (Huang, Yang & Tang, *A fast two-dimensional median
+  filtering algorithm*, IEEE TASSP 1979) over column histograms, the median tracked
+  from row to row (the counts below and up to it updated by the entering and leaving
+  rows, then moved by fine and coarse histogram steps);
+* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background: OpenCV's 11-bit
+  fixed-point weights (:func:`resize_axis`), rows combined as its SIMD path does;
+* ``cv2.blur`` (rounded to nearest), ``cv2.absdiff`` and the largest channel, at every other
+  pixel; ``cv2.threshold`` (uint8: above the floor of the threshold) and the 2x2
+  ``cv2.morphologyEx`` opening (anchor at the kernel's centre (1, 1); the border counts
+  neither for erosion nor dilation);
+* histogram medians and MADs, and the per-pixel shadow test of :mod:`cell.vision._segment`.
+
+Images are C-contiguous uint8 so that each kernel compiles once.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numba import njit
+
+__all__: list[str] = []  # private to cell.vision
+
+_ONE = 2048  # OpenCV's INTER_RESIZE_COEF_SCALE: 11-bit resize weights
+
+
+@functools.lru_cache(maxsize=16)
+def resize_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
+    """(4, dst) int64: the source indices i0, i1 and fixed-point weights w0, w1 of
+    ``cv2.resize`` (``INTER_LINEAR``, uint8) along one axis from ``src`` to ``dst``
+    pixels: position (d + 0.5) * src / dst - 0.5 (float32), weights rounded (x 2048).
+    Columns (``clamp``) take the edge pixel alone beyond the first and last centres;
+    rows keep their weights and repeat the edge row (OpenCV's resize does both)."""
+    scale = 1.0 / (dst / src)
+    f = ((np.arange(dst) + 0.5) * scale - 0.5).astype(np.float32)
+    s = np.floor(f).astype(np.int64)
+    f = f - s.astype(np.float32)
+    if clamp:
+        f[s < 0] = 0
+        s[s < 0] = 0
+        f[s >= src - 1] = 0
+        s[s >= src - 1] = src - 1
+    table = np.empty((4, dst), np.int64)
+    table[0] = np.clip(s, 0, src - 1)
+    table[1] = np.clip(s + 1, 0, src - 1)
+    table[2] = np.rint((np.float32(1) - f) * np.float32(_ONE))
+    table[3] = np.rint(f * np.float32(_ONE))
+    return table
+
+
+@njit(cache=True)
+def border(p, n):  # pragma: no cover (compiled)
+    """``cv2.borderInterpolate(p, n, BORDER_REFLECT_101)``: p mirrored into 0..n-1."""
+    if n == 1:
+        return 0
+    while p < 0 or p >= n:
+        p = -p if p < 0 else 2 * n - 2 - p
+    return p
+
+
+@njit(cache=True)
+def lerp_rows(s0, s1, b0, b1):  # pragma: no cover (compiled)
+    """Two horizontally interpolated values (x 2048) combined with row weights b0, b1
+    as ``cv2.resize``'s vector path rounds them: high halves of 16-bit products, then
+    (sum + 2) >> 2, saturated."""
+    v = (((b0 * (s0 >> 4)) >> 16) + ((b1 * (s1 >> 4)) >> 16) + 2) >> 2
+    return min(max(v, 0), 255)
+
+
+@njit(cache=True)
+def median15(small, bg):  # pragma: no cover (compiled)
+    """``bg`` (h, w, 3) uint8: the 15x15 median of each channel of ``small`` (h, w, 3)
+    uint8, borders mirrored (``BORDER_REFLECT_101``)."""
+    h, w, nc = small.shape
+    hp, wp = h + 14, w + 14
+    plane = np.empty((hp, wp), np.uint8)
+    fine = np.empty((256, wp), np.uint8)  # column histograms (value, column) ...
+    coarse = np.empty((16, wp), np.uint8)  # ... and by 16 values
+    hist = np.zeros(256, np.int64)
+    med = np.empty(w, np.int64)
+    below = np.empty(w, np.int64)  # count < median
+    upto = np.empty(w, np.int64)  # count <= median
+    cols = np.empty(wp, np.int64)
+    for j in range(wp):
+        cols[j] = border(j - 7, w)
+    for c in range(nc):
+        for i in range(hp):
+            row = small[border(i - 7, h)]
+            for j in range(wp):
+                plane[i, j] = row[cols[j], c]
+        _median_plane(plane, bg, c, fine, coarse, hist, med, below, upto)
+
+
+@njit(cache=True)
+def _window_count(hists, x, v):  # pragma: no cover (compiled)
+    s = 0
+    for j in range(x, x + 15):
+        s += hists[v, j]
+    return s
+
+
+@njit(cache=True)
+def _median_plane(q, bg, c, fine, coarse, hist, med, below, upto):  # pragma: no cover
+    hp, wp = q.shape
+    h, w = hp - 14, wp - 14
+    half = 112  # the median of 225 values has 112 below it
+    fine[:] = 0
+    coarse[:] = 0
+    for i in range(15):
+        for j in range(wp):
+            fine[q[i, j], j] += 1
+            coarse[q[i, j] >> 4, j] += 1
+    hist[:] = 0  # the first row: Huang's sliding histogram along it
+    for i in range(15):
+        for j in range(15):
+            hist[q[i, j]] += 1
+    m, lt = 0, 0
+    for x in range(w):
+        if x > 0:
+            for i in range(15):
+                a, b = q[i, x - 1], q[i, x + 14]
+                hist[a] -= 1
+                hist[b] += 1
+                lt += (b < m) - (a < m)
+        while lt > half:
+            m -= 1
+            lt -= hist[m]
+        while lt + hist[m] <= half:
+            lt += hist[m]
+            m += 1
+        med[x], below[x], upto[x] = m, lt, lt + hist[m]
+        bg[0, x, c] = m
+    for y in range(1, h):
+        out_row, in_row = q[y - 1], q[y + 14]
+        for d in range(15):
+            for x in range(w):
+                m, a, b = med[x], out_row[x + d], in_row[x + d]
+                below[x] += (b < m) - (a < m)
+                upto[x] += (b <= m) - (a <= m)
+        for j in range(wp):
+            a, b = out_row[j], in_row[j]
+            if a != b:
+                fine[a, j] -= 1
+                fine[b, j] += 1
+                coarse[a >> 4, j] -= 1
+                coarse[b >> 4, j] += 1
+        for x in range(w):
+            m, lt, le = med[x], below[x], upto[x]
+            if lt > half:  # the median fell: walk down, 16 values at a time where possible
+                v = m - 1
+                while True:
+                    if v & 15 == 15:
+                        n = _window_count(coarse, x, v >> 4)
+                        if lt - n > half:
+                            lt -= n
+                            v -= 16
+                            continue
+                    n = _window_count(fine, x, v)
+                    if lt - n <= half:
+                        m, le, lt = v, lt, lt - n
+                        break
+                    lt -= n
+                    v -= 1
+                med[x], below[x], upto[x] = m, lt, le
+            elif le <= half:  # it rose: walk up
+                v, lt = m + 1, le
+                while True:
+                    if v & 15 == 0:
+                        n = _window_count(coarse, x, v >> 4)
+                        if lt + n <= half:
+                            lt += n
+                            v += 16
+                            continue
+                    n = _window_count(fine, x, v)
+                    if lt + n > half:
+                        m, le = v, lt + n
+                        break
+                    lt += n
+                    v += 1
+                med[x], below[x], upto[x] = m, lt, le
+            bg[y, x, c] = m
+
+
+@njit(cache=True)
+def upper_median(hist, n):  # pragma: no cover (compiled)
+    """The value of rank n // 2 (0-based) among the n counted in ``hist``."""
+    s = 0
+    for v in range(hist.shape[0]):
+        s += hist[v]
+        if s > n // 2:
+            return v
+    return hist.shape[0] - 1
+
+
+@njit(cache=True)
+def probe_levels(bg):  # pragma: no cover (compiled)
+    """(upper median of the largest channel, upper median of largest - smallest) over
+    every 3rd pixel of ``bg`` (h, w, 3) uint8."""
+    hi = np.zeros(256, np.int64)
+    spread = np.zeros(256, np.int64)
+    n = 0
+    for i in range(0, bg.shape[0], 3):
+        for j in range(0, bg.shape[1], 3):
+            r, g, b = bg[i, j, 0], bg[i, j, 1], bg[i, j, 2]
+            top, low = max(max(r, g), b), min(min(r, g), b)
+            top, low = np.int64(top), np.int64(low)
+            hi[top] += 1
+            spread[top - low] += 1
+            n += 1
+    return upper_median(hi, n), upper_median(spread, n)
+
+
+@njit(cache=True)
+def difference(img, bg_small, rows, cols, bgh, dmax):  # pragma: no cover (compiled)
+    """At every other pixel of ``img`` (H, W, 3) uint8: the background ``bgh`` (h, w, 3)
+    (``bg_small`` resized bilinearly by tables ``rows`` (4, h), ``cols`` (4, w), see
+    :func:`resize_axis`) and the largest channel difference from it, ``dmax`` (h, w)."""
+    h, w = dmax.shape
+    hs = bg_small.shape[0]
+    inter = np.empty((hs, w, 3), np.int64)  # each small row interpolated along x (x 2048)
+    for i in range(hs):
+        for x in range(w):
+            j0, j1, a0, a1 = cols[0, x], cols[1, x], cols[2, x], cols[3, x]
+            for c in range(3):
+                inter[i, x, c] = bg_small[i, j0, c] * a0 + bg_small[i, j1, c] * a1
+    for y in range(h):
+        r0, r1, b0, b1 = rows[0, y], rows[1, y], rows[2, y], rows[3, y]
+        for x in range(w):
+            top = 0
+            for c in range(3):
+                v = lerp_rows(inter[r0, x, c], inter[r1, x, c], b0, b1)
+                bgh[y, x, c] = v
+                top = max(top, abs(np.int64(img[2 * y, 2 * x, c]) - v))
+            dmax[y, x] = top
+
+
+@njit(cache=True)
+def box_difference(img, bgh, k, dmax):  # pragma: no cover (compiled)
+    """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, w, 3) and
+    ``cv2.blur(img, (k, k))`` (borders mirrored, rounded to nearest) at every other pixel
+    of ``img`` (H, W, 3) uint8."""
+    hh, ww = img.shape[:2]
+    h, w = dmax.shape
+    r = k // 2
+    area = k * k
+    sums = np.empty((ww + 2 * r, 3), np.int64)  # column sums, mirrored past the edges
+    cols = np.empty(ww + 2 * r, np.int64)
+    for j in range(ww + 2 * r):
+        cols[j] = border(j - r, ww)
+    col = np.empty((ww, 3), np.int64)
+    for y in range(h):
+        col[:] = 0
+        for i in range(2 * y - r, 2 * y + r + 1):
+            row = img[border(i, hh)]
+            for j in range(ww):
+                for c in range(3):
+                    col[j, c] += row[j, c]
+        for j in range(ww + 2 * r):
+            for c in range(3):
+                sums[j, c] = col[cols[j], c]
+        for x in range(w):
+            top = 0
+            for c in range(3):
+                s = 0
+                for j in range(2 * x, 2 * x + k):
+                    s += sums[j, c]
+                v = (2 * s + area) // (2 * area)
+                top = max(top, abs(v - np.int64(bgh[y, x, c])))
+            dmax[y, x] = top
+
+
+@njit(cache=True)
+def median_mad(dmax):  # pragma: no cover (compiled)
+    """(median, MAD) of every 4th pixel of ``dmax`` (h, w) uint8 from 2, 2, from its
+    histogram: the lower median (rank (n - 1) // 2) of the values and of their absolute
+    deviations from it."""
+    hist = np.zeros(256, np.int64)
+    n = 0
+    for y in range(2, dmax.shape[0], 4):
+        for x in range(2, dmax.shape[1], 4):
+            hist[dmax[y, x]] += 1
+            n += 1
+    med = upper_median(hist, n - 1)
+    dev = np.zeros(256, np.int64)
+    for v in range(256):
+        dev[abs(v - med)] += hist[v]
+    return med, upper_median(dev, n - 1)
+
+
+@njit(cache=True)
+def open2(dmax, level, mask):  # pragma: no cover (compiled)
+    """``mask`` (h, w) uint8: 255 where ``dmax`` (h, w) uint8 exceeds ``level`` (int),
+    opened by a 2x2 square anchored at its lower right (OpenCV's centre of a 2x2 kernel):
+    a minimum, then a maximum, over each pixel and its upper and left neighbours."""
+    h, w = dmax.shape
+    ero = np.empty((h, w), np.uint8)
+    for y in range(h):
+        for x in range(w):
+            v = dmax[y, x] > level
+            if v and y > 0:
+                v = dmax[y - 1, x] > level and (x == 0 or dmax[y - 1, x - 1] > level)
+            if v and x > 0:
+                v = dmax[y, x - 1] > level
+            ero[y, x] = v
+    for y in range(h):
+        for x in range(w):
+            v = ero[y, x] or (x > 0 and ero[y, x - 1])
+            if not v and y > 0:
+                v = ero[y - 1, x] or (x > 0 and ero[y - 1, x - 1])
+            mask[y, x] = 255 if v else 0
+
+
+@njit(cache=True)
+def noise_mad(img):  # pragma: no cover (compiled)
+    """MAD (grey levels) of the differences of green pixels two apart, on every 16th row
+    from 4 of ``img`` (H, W, 3) uint8: the upper median of their absolute deviations
+    from their upper median."""
+    hist = np.zeros(511, np.int64)
+    n = 0
+    for y in range(4, img.shape[0], 16):
+        for x in range(2, img.shape[1], 2):
+            hist[np.int64(img[y, x, 1]) - np.int64(img[y, x - 2, 1]) + 255] += 1
+            n += 1
+    med = upper_median(hist, n)
+    dev = np.zeros(511, np.int64)
+    for v in range(511):
+        dev[abs(v - med)] += hist[v]
+    return upper_median(dev, n)
+
+
+@njit(cache=True)
+def is_shadow(mean, bg, keep):  # pragma: no cover (compiled)
+    """Whether a pixel of 3x3 mean ``mean`` (3,) uint8 over background ``bg`` (3,) uint8
+    is shadow: every channel below 0.75 (bg + 1), i.e. 4 mean < 3 (bg + 1), and the
+    ratios mean / (bg + 1) (float32; bg + 1 saturated at 255, as ``cv2.add``) within a
+    factor ``keep`` (float32, 1 - chroma) of the largest."""
+    for c in range(3):
+        if 4 * np.int64(mean[c]) >= 3 * (np.int64(bg[c]) + 1):
+            return False
+    r0 = np.float32(mean[0]) / np.float32(min(np.int64(bg[0]) + 1, 255))
+    r1 = np.float32(mean[1]) / np.float32(min(np.int64(bg[1]) + 1, 255))
+    r2 = np.float32(mean[2]) / np.float32(min(np.int64(bg[2]) + 1, 255))
+    return min(min(r0, r1), r2) > keep * max(max(r0, r1), r2)
+
+
+@njit(cache=True)
+def clear_shadow(mask, img, bg, x0, y0, keep):  # pragma: no cover (compiled)
+    """Clear the shadow pixels (:func:`is_shadow`) among the nonzero ones of ``mask``
+    (h, w) uint8, a window of ``img`` (H, W, 3) uint8 from (``x0``, ``y0``) whose
+    background is ``bg`` (h, w, 3) uint8, from the 3x3 mean of ``img`` there
+    (``cv2.blur``: borders mirrored, rounded to nearest)."""
+    hh, ww = img.shape[:2]
+    mean = np.empty(3, np.uint8)
+    for y in range(mask.shape[0]):
+        for x in range(mask.shape[1]):
+            if mask[y, x]:
+                for c in range(3):
+                    s = 0
+                    for i in range(y0 + y - 1, y0 + y + 2):
+                        row = border(i, hh)
+                        for j in range(x0 + x - 1, x0 + x + 2):
+                            s += img[row, border(j, ww), c]
+                    mean[c] = (2 * s + 9) // 18
+                if is_shadow(mean, bg[y, x], keep):
+                    mask[y, x] = 0

@@ -20,7 +20,13 @@ from bisect import bisect_right
 import numpy as np
 from numba import njit
 
-from cell.vision._segment_kernel import border, clear_shadow, lerp_rows, upper_median
+from cell.vision._segment_kernel import (
+    border,
+    interpolate_x,
+    is_shadow,
+    lerp_rows,
+    upper_median,
+)
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -69,16 +75,26 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
     4. the re-threshold: ``level`` or ``edge`` times the upper median of ``d`` over the
        own part, whichever is higher, floored (at most 255);
     5. ``d`` above it near the own part (3x3-dilated), less shadow (when ``keep`` =
-       1 - chroma < 1; :func:`~cell.vision._segment_kernel.clear_shadow`), 3x3-opened:
+       1 - chroma < 1; :func:`drop_shadow`), 3x3-opened:
        written (1) to ``sub`` (the mosaic, zero) at ``at[i]``.
     """
     hh, ww = img.shape[:2]
-    hmax, wmax = 1, 1
+    flat = img.reshape(hh, ww * 3)
+    r = k // 2
+    pad = max(r, 1)  # the image around each window: the support of the filters
+    hmax, wmax, small = 1, 1, 1
     for i in range(boxes.shape[0]):
         hmax = max(hmax, boxes[i, 3] - boxes[i, 1])
         wmax = max(wmax, boxes[i, 2] - boxes[i, 0])
+        small = max(small, rows[1, boxes[i, 3] - 1] - rows[0, boxes[i, 1]] + 1)
+    win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
+    sums = np.empty((wmax + 2 * pad) * 3, np.int64)
+    src = np.empty((hmax, wmax * 3), np.uint8)
+    bg = np.empty((hmax, wmax * 3), np.uint8)
+    diff = np.empty(wmax * 3, np.int64)
+    inter = np.empty((small, wmax * 3), np.float64)  # small rows interpolated along x
     d = np.empty((hmax, wmax), np.uint8)
-    bg = np.empty((hmax, wmax, 3), np.uint8)
+    near_win = np.empty((hmax // 2 + 3, wmax // 2 + 3), np.uint8)
     a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
     b = np.empty((hmax + 2, wmax + 2), np.uint8)
     tmp = np.empty((hmax + 2, wmax), np.uint8)
@@ -88,23 +104,32 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         x0, y0, x1, y1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
         mx, my = at[i, 0], at[i, 1]
         h, w = y1 - y0, x1 - x0
-        _background(bg_small, rows, cols, x0, y0, h, w, bg)
-        _difference(img, bg, x0, y0, h, w, k, d)
+        window(flat, x0, y0, h, w, pad, win)
+        if k:
+            _box(win, pad - r, h, w, k, sums, src)
+        else:
+            for y in range(h):
+                src[y, : 3 * w] = win[y + pad, 3 * pad : 3 * (pad + w)]
+        _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):
+            for e in range(3 * w):
+                diff[e] = abs(np.int64(src[y, e]) - np.int64(bg[y, e]))
             for x in range(w):
+                d[y, x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
                 a[y + 1, x + 1] = d[y, x] > cut
         _open3(a, b, tmp, h, w)  # -> a
+        _dilated(near, mx // 2 - 1, my // 2 - 1, (w + 1) // 2 + 2, (h + 1) // 2 + 2, near_win)
         hist[:] = 0
         n = 0
         for y in range(h):
             for x in range(w):
-                if a[y + 1, x + 1]:
-                    fg[y0 + y, x0 + x] = 255
-                    if _near(near, (my + y) // 2, (mx + x) // 2):
-                        hist[d[y, x]] += 1
-                        n += 1
-                        continue
-                a[y + 1, x + 1] = 0  # a: the own part
+                fg[y0 + y, x0 + x] |= 255 * a[y + 1, x + 1]
+            for x in range(w):
+                if a[y + 1, x + 1] and near_win[y // 2 + 1, x // 2 + 1]:
+                    hist[d[y, x]] += 1
+                    n += 1
+                else:
+                    a[y + 1, x + 1] = 0  # a: the own part
         again = level
         if n > 0:
             again = max(level, edge * upper_median(hist, n))
@@ -113,9 +138,9 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         _max3(a, b, tmp, h, w)  # b: the own part dilated
         for y in range(h):
             for x in range(w):
-                b[y + 1, x + 1] = b[y + 1, x + 1] != 0 and d[y, x] > again_cut
+                b[y + 1, x + 1] = b[y + 1, x + 1] & (d[y, x] > again_cut)
         if keep < 1:
-            clear_shadow(b[1 : h + 1, 1 : w + 1], img, bg[:h, :w], x0, y0, keep)
+            drop_shadow(b, win, pad, bg, h, w, keep, sums)
         _open3(b, a, tmp, h, w)  # -> b
         for y in range(h):
             for x in range(w):
@@ -123,47 +148,88 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
 
 
 @njit(cache=True)
-def _near(near, y, x):  # pragma: no cover (compiled)
-    """Whether the 3x3 neighbourhood of ``near`` at (y, x) holds a set pixel."""
-    for yy in range(max(y - 1, 0), min(y + 2, near.shape[0])):
-        for xx in range(max(x - 1, 0), min(x + 2, near.shape[1])):
-            if near[yy, xx]:
-                return True
-    return False
+def window(flat, x0, y0, h, w, pad, win):  # pragma: no cover (compiled)
+    """``win`` (h + 2 pad, 3 (w + 2 pad)): the window of image ``flat`` (H, 3 W) and
+    ``pad`` px around it, mirrored past the image's edges."""
+    hh, ww = flat.shape[0], flat.shape[1] // 3
+    xa, xb = x0 - pad, x0 + w + pad
+    lo, hi = max(xa, 0), min(xb, ww)
+    for i in range(h + 2 * pad):
+        row = flat[border(y0 - pad + i, hh)]
+        out = win[i]
+        out[3 * (lo - xa) : 3 * (hi - xa)] = row[3 * lo : 3 * hi]
+        for x in range(xa, lo):
+            j = 3 * border(x, ww)
+            out[3 * (x - xa) : 3 * (x - xa) + 3] = row[j : j + 3]
+        for x in range(hi, xb):
+            j = 3 * border(x, ww)
+            out[3 * (x - xa) : 3 * (x - xa) + 3] = row[j : j + 3]
 
 
 @njit(cache=True)
-def _background(bg_small, rows, cols, x0, y0, h, w, bg):  # pragma: no cover (compiled)
+def _box(win, o, h, w, k, sums, src):  # pragma: no cover (compiled)
+    """``src`` (h, 3 w): the k x k mean (rounded to nearest) of window ``win`` whose
+    window pixels start ``o + k // 2`` px in."""
+    inv = 1.0 / (k * k)
+    n = 3 * (w + k - 1)
     for y in range(h):
-        r0, r1, b0, b1 = rows[0, y0 + y], rows[1, y0 + y], rows[2, y0 + y], rows[3, y0 + y]
-        for x in range(w):
-            j0, j1, a0, a1 = cols[0, x0 + x], cols[1, x0 + x], cols[2, x0 + x], cols[3, x0 + x]
-            for c in range(3):
-                s0 = np.int64(bg_small[r0, j0, c]) * a0 + np.int64(bg_small[r0, j1, c]) * a1
-                s1 = np.int64(bg_small[r1, j0, c]) * a0 + np.int64(bg_small[r1, j1, c]) * a1
-                bg[y, x, c] = lerp_rows(s0, s1, b0, b1)
+        sums[:n] = 0
+        for i in range(y + o, y + o + k):
+            row = win[i, 3 * o : 3 * o + n]
+            for e in range(n):
+                sums[e] += row[e]
+        for e in range(3 * w):
+            s = 0
+            for j in range(k):
+                s += sums[e + 3 * j]
+            src[y, e] = np.int64(s * inv + 0.5)  # (never within rounding of a half)
 
 
 @njit(cache=True)
-def _difference(img, bg, x0, y0, h, w, k, d):  # pragma: no cover (compiled)
-    hh, ww = img.shape[:2]
-    r = k // 2
-    area = max(k * k, 1)
+def _background(bg_small, rows, cols, x0, y0, h, w, inter, bg):  # pragma: no cover
+    """``bg`` (h, 3 w): the full-scale background of window (x0, y0, h, w)."""
+    lo = rows[0, y0]
+    for i in range(lo, rows[1, y0 + h - 1] + 1):
+        interpolate_x(bg_small[i], cols[0, x0 : x0 + w], cols[1, x0 : x0 + w],
+                      cols[2, x0 : x0 + w], cols[3, x0 : x0 + w], inter[i - lo, : 3 * w])
+    for y in range(h):
+        lerp_rows(inter[rows[0, y0 + y] - lo], inter[rows[1, y0 + y] - lo], rows[2, y0 + y],
+                  rows[3, y0 + y], bg[y, : 3 * w])
+
+
+@njit(cache=True)
+def _dilated(near, x0, y0, w, h, out):  # pragma: no cover (compiled)
+    """``out`` (h, w): the 3x3 dilation of ``near`` on its window from (x0, y0)."""
+    nh, nw = near.shape
     for y in range(h):
         for x in range(w):
-            top = 0
-            for c in range(3):
-                if k:
-                    s = 0
-                    for yy in range(y0 + y - r, y0 + y + r + 1):
-                        row = border(yy, hh)
-                        for xx in range(x0 + x - r, x0 + x + r + 1):
-                            s += img[row, border(xx, ww), c]
-                    v = (2 * s + area) // (2 * area)
-                else:
-                    v = np.int64(img[y0 + y, x0 + x, c])
-                top = max(top, abs(v - np.int64(bg[y, x, c])))
-            d[y, x] = top
+            v = 0
+            for yy in range(max(y0 + y - 1, 0), min(y0 + y + 2, nh)):
+                for xx in range(max(x0 + x - 1, 0), min(x0 + x + 2, nw)):
+                    v |= near[yy, xx]
+            out[y, x] = v
+
+
+@njit(cache=True)
+def drop_shadow(b, win, pad, bg, h, w, keep, sums):  # pragma: no cover (compiled)
+    """Clear the shadow pixels (:func:`~cell.vision._segment_kernel.is_shadow`) of the
+    (h, w) window of ``b`` (padded by one pixel), from the 3x3 mean (rounded to nearest)
+    of ``win`` (the image there and ``pad`` >= 1 px around, flat (h + 2 pad, 3 (w + 2 pad)),
+    from :func:`window`) and background ``bg`` (h, 3 w) uint8; ``sums`` scratch."""
+    mean = np.empty(3, np.uint8)
+    n = 3 * (w + 2)
+    for y in range(h):
+        row0, row1, row2 = win[y + pad - 1], win[y + pad], win[y + pad + 1]
+        for e in range(n):
+            j = 3 * (pad - 1) + e
+            sums[e] = np.int64(row0[j]) + np.int64(row1[j]) + np.int64(row2[j])
+        for x in range(w):
+            if b[y + 1, x + 1]:
+                for c in range(3):
+                    s = sums[3 * x + c] + sums[3 * x + 3 + c] + sums[3 * x + 6 + c]
+                    mean[c] = (2 * s + 9) // 18
+                if is_shadow(mean, bg[y, 3 * x : 3 * x + 3], keep):
+                    b[y + 1, x + 1] = 0
 
 
 @njit(cache=True)

@@ -22,10 +22,9 @@ import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
-from cell.vision._mosaic import Mosaic, refine
+from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
 from cell.vision._segment_kernel import (
     box_difference,
-    clear_shadow,
     difference,
     median15,
     median_mad,
@@ -143,13 +142,14 @@ def foreground(
     h, w = round(hh / 2), round(ww / 2)  # (OpenCV's rounding, half to even)
     hs, ws = bg_small.shape[:2]
     dmax = np.empty((h, w), np.uint8)
-    bg = np.empty((h, w, 3), np.uint8)
-    difference(img, bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True), bg, dmax)
+    bg = np.empty((h, 3 * w), np.uint8)
+    flat = img.reshape(hh, 3 * ww)
+    difference(flat, bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True), bg, dmax)
     med, mad = _median_mad(dmax)
     smooth = 0
     if st.smooth and mad > 2.0:  # noisy: average the image before differencing
         smooth = st.smooth
-        box_difference(img, bg, smooth, dmax)  # at full scale, as each blob's box is
+        box_difference(flat, bg, smooth, dmax)  # at full scale, as each blob's box is
         med, mad = _median_mad(dmax)
     if st.threshold_method == "fixed":
         t = float(st.threshold_value)
@@ -186,9 +186,16 @@ def shadow(img: np.ndarray, bg: np.ndarray, chroma: float) -> np.ndarray:
 
 def _drop_shadow(keep: np.ndarray, img: np.ndarray, bg: np.ndarray, chroma: float) -> None:
     """Clear the :func:`shadow` pixels of mask ``keep`` (uint8, img's shape), testing only
-    its nonzero pixels (compiled: :func:`~cell.vision._segment_kernel.clear_shadow`)."""
+    its nonzero pixels, as the refinement does (:func:`~cell.vision._mosaic.drop_shadow`)."""
     if chroma > 0:
-        clear_shadow(keep, img, bg, 0, 0, np.float32(1.0 - chroma))
+        h, w = keep.shape
+        win = np.empty((h + 2, 3 * (w + 2)), np.uint8)
+        window(img.reshape(h, 3 * w), 0, 0, h, w, 1, win)
+        padded = np.zeros((h + 2, w + 2), np.uint8)
+        padded[1:-1, 1:-1] = keep > 0
+        drop_shadow(padded, win, 1, np.ascontiguousarray(bg).reshape(h, 3 * w), h, w,
+                    np.float32(1.0 - chroma), np.empty(3 * (w + 2), np.int64))
+        keep[padded[1:-1, 1:-1] == 0] = 0
 
 
 def find_blobs(view: FrameView) -> list[Blob]:

@@ -64,12 +64,25 @@ def border(p, n):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def lerp_rows(s0, s1, b0, b1):  # pragma: no cover (compiled)
-    """Two horizontally interpolated values (x 2048) combined with row weights b0, b1
-    as ``cv2.resize``'s vector path rounds them: high halves of 16-bit products, then
-    (sum + 2) >> 2, saturated."""
-    v = (((b0 * (s0 >> 4)) >> 16) + ((b1 * (s1 >> 4)) >> 16) + 2) >> 2
-    return min(max(v, 0), 255)
+def lerp_rows(q0, q1, b0, b1, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: two rows of horizontally interpolated values (x 2048, shifted
+    right by 4: ``q0``, ``q1`` (n,) float64, integers) combined with row weights ``b0``,
+    ``b1`` as ``cv2.resize``'s vector path rounds them: the high halves of the 16-bit
+    products, then (sum + 2) >> 2, saturated. (Exact in float64: products < 2^27.)"""
+    f0, f1 = b0 / 65536.0, b1 / 65536.0
+    for e in range(out.shape[0]):
+        out[e] = min((np.floor(f0 * q0[e]) + np.floor(f1 * q1[e]) + 2.0) * 0.25, 255.0)
+
+
+@njit(cache=True)
+def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled)
+    """``out`` (3 n,) float64: small row ``small`` (ws, 3) uint8 interpolated at n
+    columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), see
+    :func:`resize_axis`), x 2048 and shifted right by 4 (for :func:`lerp_rows`)."""
+    for x in range(j0s.shape[0]):
+        j0, j1, a0, a1 = j0s[x], j1s[x], a0s[x], a1s[x]
+        for c in range(3):
+            out[3 * x + c] = (np.int64(small[j0, c]) * a0 + np.int64(small[j1, c]) * a1) >> 4
 
 
 @njit(cache=True)
@@ -217,61 +230,77 @@ def probe_levels(bg):  # pragma: no cover (compiled)
 
 @njit(cache=True)
 def difference(img, bg_small, rows, cols, bgh, dmax):  # pragma: no cover (compiled)
-    """At every other pixel of ``img`` (H, W, 3) uint8: the background ``bgh`` (h, w, 3)
-    (``bg_small`` resized bilinearly by tables ``rows`` (4, h), ``cols`` (4, w), see
-    :func:`resize_axis`) and the largest channel difference from it, ``dmax`` (h, w)."""
+    """At every other pixel of ``img`` (H, 3 W) uint8 (RGB rows): the background ``bgh``
+    (h, 3 w) (``bg_small`` (hs, ws, 3) resized bilinearly by tables ``rows`` (4, h),
+    ``cols`` (4, w), see :func:`resize_axis`) and the largest channel difference from
+    it, ``dmax`` (h, w)."""
     h, w = dmax.shape
     hs = bg_small.shape[0]
-    inter = np.empty((hs, w, 3), np.int64)  # each small row interpolated along x (x 2048)
+    inter = np.empty((hs, 3 * w), np.float64)
     for i in range(hs):
-        for x in range(w):
-            j0, j1, a0, a1 = cols[0, x], cols[1, x], cols[2, x], cols[3, x]
-            for c in range(3):
-                inter[i, x, c] = bg_small[i, j0, c] * a0 + bg_small[i, j1, c] * a1
+        interpolate_x(bg_small[i], cols[0], cols[1], cols[2], cols[3], inter[i])
     for y in range(h):
-        r0, r1, b0, b1 = rows[0, y], rows[1, y], rows[2, y], rows[3, y]
-        for x in range(w):
-            top = 0
-            for c in range(3):
-                v = lerp_rows(inter[r0, x, c], inter[r1, x, c], b0, b1)
-                bgh[y, x, c] = v
-                top = max(top, abs(np.int64(img[2 * y, 2 * x, c]) - v))
-            dmax[y, x] = top
+        lerp_rows(inter[rows[0, y]], inter[rows[1, y]], rows[2, y], rows[3, y], bgh[y])
+        _max_diff(img[2 * y], bgh[y], dmax[y])
+
+
+@njit(cache=True)
+def _max_diff(src, bg, out):  # pragma: no cover (compiled)
+    """``out`` (w,): the largest channel difference of every other pixel of ``src``
+    (3 W,) from ``bg`` (3 w,)."""
+    for x in range(out.shape[0]):
+        d0 = abs(np.int64(src[6 * x]) - np.int64(bg[3 * x]))
+        d1 = abs(np.int64(src[6 * x + 1]) - np.int64(bg[3 * x + 1]))
+        d2 = abs(np.int64(src[6 * x + 2]) - np.int64(bg[3 * x + 2]))
+        out[x] = max(max(d0, d1), d2)
 
 
 @njit(cache=True)
 def box_difference(img, bgh, k, dmax):  # pragma: no cover (compiled)
-    """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, w, 3) and
-    ``cv2.blur(img, (k, k))`` (borders mirrored, rounded to nearest) at every other pixel
-    of ``img`` (H, W, 3) uint8."""
-    hh, ww = img.shape[:2]
-    h, w = dmax.shape
+    """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
+    ``cv2.blur`` k x k of ``img`` (H, 3 W) uint8 (RGB rows; borders mirrored, rounded to
+    nearest) at every other pixel."""
+    hh, n = img.shape
+    ww = n // 3
+    h = dmax.shape[0]
     r = k // 2
-    area = k * k
-    sums = np.empty((ww + 2 * r, 3), np.int64)  # column sums, mirrored past the edges
-    cols = np.empty(ww + 2 * r, np.int64)
-    for j in range(ww + 2 * r):
-        cols[j] = border(j - r, ww)
-    col = np.empty((ww, 3), np.int64)
+    col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
+    box = np.empty(3 * ww, np.uint8)
+    acc = np.empty(3 * ww, np.uint16)
     for y in range(h):
-        col[:] = 0
-        for i in range(2 * y - r, 2 * y + r + 1):
+        inner = col[3 * r : 3 * (r + ww)]
+        row = img[border(2 * y - r, hh)]
+        for e in range(3 * ww):
+            inner[e] = row[e]
+        for i in range(2 * y - r + 1, 2 * y + r + 1):
             row = img[border(i, hh)]
-            for j in range(ww):
-                for c in range(3):
-                    col[j, c] += row[j, c]
-        for j in range(ww + 2 * r):
+            for e in range(3 * ww):
+                inner[e] += row[e]
+        for j in range(r):  # the mirrored columns
             for c in range(3):
-                sums[j, c] = col[cols[j], c]
-        for x in range(w):
-            top = 0
-            for c in range(3):
-                s = 0
-                for j in range(2 * x, 2 * x + k):
-                    s += sums[j, c]
-                v = (2 * s + area) // (2 * area)
-                top = max(top, abs(v - np.int64(bgh[y, x, c])))
-            dmax[y, x] = top
+                col[3 * j + c] = inner[3 * border(j - r, ww) + c]
+                col[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
+        box_row(col, k, acc, box)
+        _max_diff(box, bgh[y], dmax[y])
+
+
+@njit(cache=True)
+def box_row(col, k, acc, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: the k-wide sums s (3 apart: RGB) of column sums ``col``
+    (n + 3 (k - 1),) uint16, over k^2 rounded to nearest: s / k^2 + 1/2 is at least
+    1 / 2 k^2 from an integer, far beyond float32 rounding; ``acc`` (n,) uint16 scratch."""
+    n = out.shape[0]
+    inv = np.float32(1.0 / (k * k))
+    first = col[:n]
+    for e in range(n):
+        acc[e] = first[e]
+    for j in range(1, k):
+        part = col[3 * j : 3 * j + n]
+        for e in range(n):
+            acc[e] += part[e]
+    half = np.float32(0.5)
+    for e in range(n):
+        out[e] = np.float32(acc[e]) * inv + half
 
 
 @njit(cache=True)
@@ -298,21 +327,38 @@ def open2(dmax, level, mask):  # pragma: no cover (compiled)
     opened by a 2x2 square anchored at its lower right (OpenCV's centre of a 2x2 kernel):
     a minimum, then a maximum, over each pixel and its upper and left neighbours."""
     h, w = dmax.shape
+    above = np.empty((h, w), np.uint8)
+    for y in range(h):
+        row, out = dmax[y], above[y]
+        for x in range(w):
+            out[x] = row[x] > level
     ero = np.empty((h, w), np.uint8)
+    _corner(above, ero, True)
+    _corner(ero, above, False)
     for y in range(h):
+        row, out = above[y], mask[y]
         for x in range(w):
-            v = dmax[y, x] > level
-            if v and y > 0:
-                v = dmax[y - 1, x] > level and (x == 0 or dmax[y - 1, x - 1] > level)
-            if v and x > 0:
-                v = dmax[y, x - 1] > level
-            ero[y, x] = v
+            out[x] = 255 * row[x]
+
+
+@njit(cache=True)
+def _corner(src, dst, low):  # pragma: no cover (compiled)
+    """``dst``: the minimum (``low``) or maximum of 0/1 ``src`` over each pixel and its
+    upper, left and upper-left neighbours (those inside the image)."""
+    h, w = src.shape
     for y in range(h):
-        for x in range(w):
-            v = ero[y, x] or (x > 0 and ero[y, x - 1])
-            if not v and y > 0:
-                v = ero[y - 1, x] or (x > 0 and ero[y - 1, x - 1])
-            mask[y, x] = 255 if v else 0
+        cur, out = src[y], dst[y]
+        prev = src[y - 1] if y > 0 else cur
+        if low:
+            out[0] = cur[0] & prev[0]
+            c1, c0, p1, p0, o1 = cur[1:], cur[:-1], prev[1:], prev[:-1], out[1:]
+            for x in range(w - 1):
+                o1[x] = c1[x] & c0[x] & p1[x] & p0[x]
+        else:
+            out[0] = cur[0] | prev[0]
+            c1, c0, p1, p0, o1 = cur[1:], cur[:-1], prev[1:], prev[:-1], out[1:]
+            for x in range(w - 1):
+                o1[x] = c1[x] | c0[x] | p1[x] | p0[x]
 
 
 @njit(cache=True)
@@ -347,24 +393,3 @@ def is_shadow(mean, bg, keep):  # pragma: no cover (compiled)
     r2 = np.float32(mean[2]) / np.float32(min(np.int64(bg[2]) + 1, 255))
     return min(min(r0, r1), r2) > keep * max(max(r0, r1), r2)
 
-
-@njit(cache=True)
-def clear_shadow(mask, img, bg, x0, y0, keep):  # pragma: no cover (compiled)
-    """Clear the shadow pixels (:func:`is_shadow`) among the nonzero ones of ``mask``
-    (h, w) uint8, a window of ``img`` (H, W, 3) uint8 from (``x0``, ``y0``) whose
-    background is ``bg`` (h, w, 3) uint8, from the 3x3 mean of ``img`` there
-    (``cv2.blur``: borders mirrored, rounded to nearest)."""
-    hh, ww = img.shape[:2]
-    mean = np.empty(3, np.uint8)
-    for y in range(mask.shape[0]):
-        for x in range(mask.shape[1]):
-            if mask[y, x]:
-                for c in range(3):
-                    s = 0
-                    for i in range(y0 + y - 1, y0 + y + 2):
-                        row = border(i, hh)
-                        for j in range(x0 + x - 1, x0 + x + 2):
-                            s += img[row, border(j, ww), c]
-                    mean[c] = (2 * s + 9) // 18
-                if is_shadow(mean, bg[y, x], keep):
-                    mask[y, x] = 0

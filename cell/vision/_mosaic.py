@@ -22,9 +22,11 @@ from numba import njit
 
 from cell.vision._segment_kernel import (
     border,
+    box_row,
     interpolate_x,
     is_shadow,
     lerp_rows,
+    max_diff,
     upper_median,
 )
 
@@ -70,8 +72,9 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
        resized bilinearly by tables ``rows`` (4, H), ``cols`` (4, W));
     2. its foreground: above ``level`` (float; uint8 compared with its floor), 3x3-opened,
        added (255) to ``fg`` (H, W) uint8;
-    3. the window's own part: that foreground where ``near`` (the half-scale mosaic,
-       uint8, 1 on the blob's filled contour), 3x3-dilated and doubled, is set;
+    3. the window's own part: that foreground where ``near`` (the half-scale mosaic
+       framed by one empty pixel, uint8, 1 on the blob's filled contour), 3x3-dilated
+       and doubled, is set;
     4. the re-threshold: ``level`` or ``edge`` times the upper median of ``d`` over the
        own part, whichever is higher, floored (at most 255);
     5. ``d`` above it near the own part (3x3-dilated), less shadow (when ``keep`` =
@@ -88,13 +91,13 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         wmax = max(wmax, boxes[i, 2] - boxes[i, 0])
         small = max(small, rows[1, boxes[i, 3] - 1] - rows[0, boxes[i, 1]] + 1)
     win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
-    sums = np.empty((wmax + 2 * pad) * 3, np.int64)
+    sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
+    acc = np.empty(wmax * 3, np.uint16)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
-    diff = np.empty(wmax * 3, np.int64)
     inter = np.empty((small, wmax * 3), np.float64)  # small rows interpolated along x
     d = np.empty((hmax, wmax), np.uint8)
-    near_win = np.empty((hmax // 2 + 3, wmax // 2 + 3), np.uint8)
+    near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
     a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
     b = np.empty((hmax + 2, wmax + 2), np.uint8)
     tmp = np.empty((hmax + 2, wmax), np.uint8)
@@ -106,30 +109,29 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         h, w = y1 - y0, x1 - x0
         window(flat, x0, y0, h, w, pad, win)
         if k:
-            _box(win, pad - r, h, w, k, sums, src)
-        else:
-            for y in range(h):
-                src[y, : 3 * w] = win[y + pad, 3 * pad : 3 * (pad + w)]
+            _box(win, pad - r, h, w, k, sums, acc, src)
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):
-            for e in range(3 * w):
-                diff[e] = abs(np.int64(src[y, e]) - np.int64(bg[y, e]))
+            srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
+            drow, arow = d[y, :w], a[y + 1, 1 : w + 1]
+            max_diff(srow, bg[y, : 3 * w], drow)
             for x in range(w):
-                d[y, x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
-                a[y + 1, x + 1] = d[y, x] > cut
+                arow[x] = drow[x] > cut
         _open3(a, b, tmp, h, w)  # -> a
-        _dilated(near, mx // 2 - 1, my // 2 - 1, (w + 1) // 2 + 2, (h + 1) // 2 + 2, near_win)
+        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, tmp, near_win)
         hist[:] = 0
         n = 0
         for y in range(h):
+            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y, :w]
             for x in range(w):
-                fg[y0 + y, x0 + x] |= 255 * a[y + 1, x + 1]
+                frow[x] |= 255 * arow[x]
+            nrow = near_win[y // 2]
             for x in range(w):
-                if a[y + 1, x + 1] and near_win[y // 2 + 1, x // 2 + 1]:
-                    hist[d[y, x]] += 1
+                arow[x] &= nrow[x >> 1]  # a: the own part
+            for x in range(w):
+                if arow[x]:
+                    hist[drow[x]] += 1
                     n += 1
-                else:
-                    a[y + 1, x + 1] = 0  # a: the own part
         again = level
         if n > 0:
             again = max(level, edge * upper_median(hist, n))
@@ -137,14 +139,16 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         _frame(a, h, w, 0)
         _max3(a, b, tmp, h, w)  # b: the own part dilated
         for y in range(h):
+            brow, drow = b[y + 1, 1 : w + 1], d[y, :w]
             for x in range(w):
-                b[y + 1, x + 1] = b[y + 1, x + 1] & (d[y, x] > again_cut)
+                brow[x] = brow[x] & (drow[x] > again_cut)
         if keep < 1:
             drop_shadow(b, win, pad, bg, h, w, keep, sums)
         _open3(b, a, tmp, h, w)  # -> b
         for y in range(h):
+            brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
             for x in range(w):
-                sub[my + y, mx + x] = b[y + 1, x + 1]
+                out[x] = brow[x]
 
 
 @njit(cache=True)
@@ -157,32 +161,34 @@ def window(flat, x0, y0, h, w, pad, win):  # pragma: no cover (compiled)
     for i in range(h + 2 * pad):
         row = flat[border(y0 - pad + i, hh)]
         out = win[i]
-        out[3 * (lo - xa) : 3 * (hi - xa)] = row[3 * lo : 3 * hi]
+        inner, part = out[3 * (lo - xa) : 3 * (hi - xa)], row[3 * lo : 3 * hi]
+        for e in range(inner.shape[0]):
+            inner[e] = part[e]
         for x in range(xa, lo):
             j = 3 * border(x, ww)
-            out[3 * (x - xa) : 3 * (x - xa) + 3] = row[j : j + 3]
+            for c in range(3):
+                out[3 * (x - xa) + c] = row[j + c]
         for x in range(hi, xb):
             j = 3 * border(x, ww)
-            out[3 * (x - xa) : 3 * (x - xa) + 3] = row[j : j + 3]
+            for c in range(3):
+                out[3 * (x - xa) + c] = row[j + c]
 
 
 @njit(cache=True)
-def _box(win, o, h, w, k, sums, src):  # pragma: no cover (compiled)
+def _box(win, o, h, w, k, sums, acc, src):  # pragma: no cover (compiled)
     """``src`` (h, 3 w): the k x k mean (rounded to nearest) of window ``win`` whose
-    window pixels start ``o + k // 2`` px in."""
-    inv = 1.0 / (k * k)
+    window pixels start ``o + k // 2`` px in; ``sums`` and ``acc`` scratch."""
     n = 3 * (w + k - 1)
+    col = sums[:n]
     for y in range(h):
-        sums[:n] = 0
-        for i in range(y + o, y + o + k):
+        first = win[y + o, 3 * o : 3 * o + n]
+        for e in range(n):
+            col[e] = first[e]
+        for i in range(y + o + 1, y + o + k):
             row = win[i, 3 * o : 3 * o + n]
             for e in range(n):
-                sums[e] += row[e]
-        for e in range(3 * w):
-            s = 0
-            for j in range(k):
-                s += sums[e + 3 * j]
-            src[y, e] = np.int64(s * inv + 0.5)  # (never within rounding of a half)
+                col[e] += row[e]
+        box_row(col, k, acc[: 3 * w], src[y, : 3 * w])
 
 
 @njit(cache=True)
@@ -198,16 +204,18 @@ def _background(bg_small, rows, cols, x0, y0, h, w, inter, bg):  # pragma: no co
 
 
 @njit(cache=True)
-def _dilated(near, x0, y0, w, h, out):  # pragma: no cover (compiled)
-    """``out`` (h, w): the 3x3 dilation of ``near`` on its window from (x0, y0)."""
-    nh, nw = near.shape
-    for y in range(h):
+def _dilated(near, x0, y0, w, h, tmp, out):  # pragma: no cover (compiled)
+    """``out`` (h, w): the 3x3 dilation of ``near`` (framed by one empty pixel) on its
+    window from (x0, y0) (unframed coordinates); ``tmp`` scratch."""
+    for y in range(h + 2):
+        s0, s1, s2, t = near[y0 + y, x0 : x0 + w], near[y0 + y, x0 + 1 : x0 + w + 1], \
+            near[y0 + y, x0 + 2 : x0 + w + 2], tmp[y, :w]
         for x in range(w):
-            v = 0
-            for yy in range(max(y0 + y - 1, 0), min(y0 + y + 2, nh)):
-                for xx in range(max(x0 + x - 1, 0), min(x0 + x + 2, nw)):
-                    v |= near[yy, xx]
-            out[y, x] = v
+            t[x] = max(max(s0[x], s1[x]), s2[x])
+    for y in range(h):
+        t0, t1, t2, o = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], out[y, :w]
+        for x in range(w):
+            o[x] = max(max(t0[x], t1[x]), t2[x])
 
 
 @njit(cache=True)
@@ -216,20 +224,21 @@ def drop_shadow(b, win, pad, bg, h, w, keep, sums):  # pragma: no cover (compile
     (h, w) window of ``b`` (padded by one pixel), from the 3x3 mean (rounded to nearest)
     of ``win`` (the image there and ``pad`` >= 1 px around, flat (h + 2 pad, 3 (w + 2 pad)),
     from :func:`window`) and background ``bg`` (h, 3 w) uint8; ``sums`` scratch."""
-    mean = np.empty(3, np.uint8)
     n = 3 * (w + 2)
+    col = sums[:n]
     for y in range(h):
-        row0, row1, row2 = win[y + pad - 1], win[y + pad], win[y + pad + 1]
+        j = 3 * (pad - 1)
+        row0, row1, row2 = win[y + pad - 1, j : j + n], win[y + pad, j : j + n], win[y + pad + 1, j : j + n]
         for e in range(n):
-            j = 3 * (pad - 1) + e
-            sums[e] = np.int64(row0[j]) + np.int64(row1[j]) + np.int64(row2[j])
+            col[e] = np.uint16(row0[e]) + row1[e] + row2[e]
+        brow, grow = b[y + 1], bg[y]
         for x in range(w):
-            if b[y + 1, x + 1]:
-                for c in range(3):
-                    s = sums[3 * x + c] + sums[3 * x + 3 + c] + sums[3 * x + 6 + c]
-                    mean[c] = (2 * s + 9) // 18
-                if is_shadow(mean, bg[y, 3 * x : 3 * x + 3], keep):
-                    b[y + 1, x + 1] = 0
+            if brow[x + 1]:
+                m0 = (2 * (np.int64(col[3 * x]) + col[3 * x + 3] + col[3 * x + 6]) + 9) // 18
+                m1 = (2 * (np.int64(col[3 * x + 1]) + col[3 * x + 4] + col[3 * x + 7]) + 9) // 18
+                m2 = (2 * (np.int64(col[3 * x + 2]) + col[3 * x + 5] + col[3 * x + 8]) + 9) // 18
+                if is_shadow(m0, m1, m2, grow[3 * x], grow[3 * x + 1], grow[3 * x + 2], keep):
+                    brow[x + 1] = 0
 
 
 @njit(cache=True)
@@ -246,21 +255,25 @@ def _frame(m, h, w, value):  # pragma: no cover (compiled)
 @njit(cache=True)
 def _min3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
     for y in range(h + 2):
+        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
         for x in range(w):
-            tmp[y, x] = min(min(src[y, x], src[y, x + 1]), src[y, x + 2])
+            t[x] = min(min(s0[x], s1[x]), s2[x])
     for y in range(h):
+        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
         for x in range(w):
-            dst[y + 1, x + 1] = min(min(tmp[y, x], tmp[y + 1, x]), tmp[y + 2, x])
+            out[x] = min(min(t0[x], t1[x]), t2[x])
 
 
 @njit(cache=True)
 def _max3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
     for y in range(h + 2):
+        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
         for x in range(w):
-            tmp[y, x] = max(max(src[y, x], src[y, x + 1]), src[y, x + 2])
+            t[x] = max(max(s0[x], s1[x]), s2[x])
     for y in range(h):
+        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
         for x in range(w):
-            dst[y + 1, x + 1] = max(max(tmp[y, x], tmp[y + 1, x]), tmp[y + 2, x])
+            out[x] = max(max(t0[x], t1[x]), t2[x])
 
 
 @njit(cache=True)

@@ -246,8 +246,8 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     boxes = np.stack((2 * hx0, 2 * hy0, np.minimum(2 * hx1, w), np.minimum(2 * hy1, h)), 1)
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
-    near = np.zeros((mos.shape[0] // 2, mos.shape[1] // 2), np.uint8)
-    shift = (mos.at // 2 - np.stack((hx0, hy0), 1)).tolist()
+    near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
+    shift = (mos.at // 2 + 1 - np.stack((hx0, hy0), 1)).tolist()
     cv2.drawContours(near, [c + s for c, s in zip(parts, shift, strict=True)], -1, 1, -1)
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]

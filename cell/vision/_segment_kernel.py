@@ -241,11 +241,22 @@ def difference(img, bg_small, rows, cols, bgh, dmax):  # pragma: no cover (compi
         interpolate_x(bg_small[i], cols[0], cols[1], cols[2], cols[3], inter[i])
     for y in range(h):
         lerp_rows(inter[rows[0, y]], inter[rows[1, y]], rows[2, y], rows[3, y], bgh[y])
-        _max_diff(img[2 * y], bgh[y], dmax[y])
+        _max_diff_half(img[2 * y], bgh[y], dmax[y])
 
 
 @njit(cache=True)
-def _max_diff(src, bg, out):  # pragma: no cover (compiled)
+def max_diff(src, bg, out):  # pragma: no cover (compiled)
+    """``out`` (w,): the largest channel difference of RGB row ``src`` (3 w,) uint8 from
+    ``bg`` (3 w,) uint8."""
+    for x in range(out.shape[0]):
+        d0 = abs(np.int64(src[3 * x]) - np.int64(bg[3 * x]))
+        d1 = abs(np.int64(src[3 * x + 1]) - np.int64(bg[3 * x + 1]))
+        d2 = abs(np.int64(src[3 * x + 2]) - np.int64(bg[3 * x + 2]))
+        out[x] = max(max(d0, d1), d2)
+
+
+@njit(cache=True)
+def _max_diff_half(src, bg, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of every other pixel of ``src``
     (3 W,) from ``bg`` (3 w,)."""
     for x in range(out.shape[0]):
@@ -281,7 +292,7 @@ def box_difference(img, bgh, k, dmax):  # pragma: no cover (compiled)
                 col[3 * j + c] = inner[3 * border(j - r, ww) + c]
                 col[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
         box_row(col, k, acc, box)
-        _max_diff(box, bgh[y], dmax[y])
+        _max_diff_half(box, bgh[y], dmax[y])
 
 
 @njit(cache=True)
@@ -380,16 +391,15 @@ def noise_mad(img):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def is_shadow(mean, bg, keep):  # pragma: no cover (compiled)
-    """Whether a pixel of 3x3 mean ``mean`` (3,) uint8 over background ``bg`` (3,) uint8
-    is shadow: every channel below 0.75 (bg + 1), i.e. 4 mean < 3 (bg + 1), and the
+def is_shadow(m0, m1, m2, g0, g1, g2, keep):  # pragma: no cover (compiled)
+    """Whether a pixel of 3x3 mean (m0, m1, m2) (RGB, integers) over background (g0, g1,
+    g2) is shadow: every channel below 0.75 (bg + 1), i.e. 4 mean < 3 (bg + 1), and the
     ratios mean / (bg + 1) (float32; bg + 1 saturated at 255, as ``cv2.add``) within a
     factor ``keep`` (float32, 1 - chroma) of the largest."""
-    for c in range(3):
-        if 4 * np.int64(mean[c]) >= 3 * (np.int64(bg[c]) + 1):
-            return False
-    r0 = np.float32(mean[0]) / np.float32(min(np.int64(bg[0]) + 1, 255))
-    r1 = np.float32(mean[1]) / np.float32(min(np.int64(bg[1]) + 1, 255))
-    r2 = np.float32(mean[2]) / np.float32(min(np.int64(bg[2]) + 1, 255))
+    g0, g1, g2 = np.int64(g0) + 1, np.int64(g1) + 1, np.int64(g2) + 1
+    if 4 * m0 >= 3 * g0 or 4 * m1 >= 3 * g1 or 4 * m2 >= 3 * g2:
+        return False
+    r0 = np.float32(m0) / np.float32(min(g0, 255))
+    r1 = np.float32(m1) / np.float32(min(g1, 255))
+    r2 = np.float32(m2) / np.float32(min(g2, 255))
     return min(min(r0, r1), r2) > keep * max(max(r0, r1), r2)
-

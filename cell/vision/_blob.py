@@ -152,7 +152,7 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
 def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int], margin: int,
                      min_area: float) -> list[Blob]:
     """Blobs of the outer contours ``cs`` (hierarchy ``hr`` as a list, ``cv2.RETR_CCOMP``)
-    of ``sub`` (uint8 0/1), a mosaic ``mos`` of windows of a
+    of ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a
     frame of ``shape`` (H, W), window by window: those of at least 8 points and
     ``min_area`` px^2, partial within ``margin`` px of the frame's edge, each with its own
     pixels (uint8 0/255, its window's shape) as ``roi``."""
@@ -177,7 +177,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
         boxes.append((bx, by, bbw, bbh))
         win = mos.window(sub, k)
         if n_outer[k] == 1:
-            own = cv2.compare(win, 0, cv2.CMP_GT)
+            own = win.copy()
         else:  # this part's pixels only, not a neighbour's
             if k not in labels:
                 labels[k] = cv2.connectedComponents(win, connectivity=8)[1]

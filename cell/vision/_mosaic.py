@@ -79,7 +79,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
        own part, whichever is higher, floored (at most 255);
     5. ``d`` above it near the own part (3x3-dilated), less shadow (when ``keep`` =
        1 - chroma < 1; :func:`drop_shadow`), 3x3-opened:
-       written (1) to ``sub`` (the mosaic, zero) at ``at[i]``.
+       written (255) to ``sub`` (the mosaic, zero) at ``at[i]``.
     """
     hh, ww = img.shape[:2]
     flat = img.reshape(hh, ww * 3)
@@ -95,7 +95,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
     acc = np.empty(wmax * 3, np.uint16)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
-    inter = np.empty((small, wmax * 3), np.float64)  # small rows interpolated along x
+    inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
     d = np.empty((hmax, wmax), np.uint8)
     near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
     a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
@@ -148,7 +148,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         for y in range(h):
             brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
             for x in range(w):
-                out[x] = brow[x]
+                out[x] = 255 * brow[x]
 
 
 @njit(cache=True)

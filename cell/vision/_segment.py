@@ -24,6 +24,7 @@ from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
 from cell.vision._segment_kernel import (
+    background_rows,
     box_difference,
     difference,
     median15,
@@ -144,13 +145,16 @@ def foreground(
     dmax = np.empty((h, w), np.uint8)
     bg = np.empty((h, 3 * w), np.uint8)
     flat = img.reshape(hh, 3 * ww)
-    difference(flat, bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True), bg, dmax)
+    background_rows(bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True), bg)
+    difference(flat, bg, True, dmax)  # (the rows _median_mad reads)
     med, mad = _median_mad(dmax)
     smooth = 0
     if st.smooth and mad > 2.0:  # noisy: average the image before differencing
         smooth = st.smooth
         box_difference(flat, bg, smooth, dmax)  # at full scale, as each blob's box is
         med, mad = _median_mad(dmax)
+    else:
+        difference(flat, bg, False, dmax)
     if st.threshold_method == "fixed":
         t = float(st.threshold_value)
     elif st.threshold_method == "otsu":

@@ -66,17 +66,18 @@ def border(p, n):  # pragma: no cover (compiled)
 @njit(cache=True)
 def lerp_rows(q0, q1, b0, b1, out):  # pragma: no cover (compiled)
     """``out`` (n,) uint8: two rows of horizontally interpolated values (x 2048, shifted
-    right by 4: ``q0``, ``q1`` (n,) float64, integers) combined with row weights ``b0``,
+    right by 4: ``q0``, ``q1`` (n,) float32, integers) combined with row weights ``b0``,
     ``b1`` as ``cv2.resize``'s vector path rounds them: the high halves of the 16-bit
     products, then (sum + 2) >> 2, saturated. (Exact in float64: products < 2^27.)"""
     f0, f1 = b0 / 65536.0, b1 / 65536.0
     for e in range(out.shape[0]):
-        out[e] = min((np.floor(f0 * q0[e]) + np.floor(f1 * q1[e]) + 2.0) * 0.25, 255.0)
+        v0, v1 = np.float64(q0[e]), np.float64(q1[e])
+        out[e] = min((np.floor(f0 * v0) + np.floor(f1 * v1) + 2.0) * 0.25, 255.0)
 
 
 @njit(cache=True)
 def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled)
-    """``out`` (3 n,) float64: small row ``small`` (ws, 3) uint8 interpolated at n
+    """``out`` (3 n,) float32: small row ``small`` (ws, 3) uint8 interpolated at n
     columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), see
     :func:`resize_axis`), x 2048 and shifted right by 4 (for :func:`lerp_rows`)."""
     for x in range(j0s.shape[0]):
@@ -229,19 +230,25 @@ def probe_levels(bg):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def difference(img, bg_small, rows, cols, bgh, dmax):  # pragma: no cover (compiled)
-    """At every other pixel of ``img`` (H, 3 W) uint8 (RGB rows): the background ``bgh``
-    (h, 3 w) (``bg_small`` (hs, ws, 3) resized bilinearly by tables ``rows`` (4, h),
-    ``cols`` (4, w), see :func:`resize_axis`) and the largest channel difference from
-    it, ``dmax`` (h, w)."""
-    h, w = dmax.shape
+def background_rows(bg_small, rows, cols, bgh):  # pragma: no cover (compiled)
+    """``bgh`` (h, 3 w) uint8: ``bg_small`` (hs, ws, 3) resized bilinearly by tables
+    ``rows`` (4, h), ``cols`` (4, w) (see :func:`resize_axis`)."""
     hs = bg_small.shape[0]
-    inter = np.empty((hs, 3 * w), np.float64)
+    inter = np.empty((hs, bgh.shape[1]), np.float32)  # (integers below 2^15: exact)
     for i in range(hs):
         interpolate_x(bg_small[i], cols[0], cols[1], cols[2], cols[3], inter[i])
-    for y in range(h):
+    for y in range(bgh.shape[0]):
         lerp_rows(inter[rows[0, y]], inter[rows[1, y]], rows[2, y], rows[3, y], bgh[y])
-        _max_diff_half(img[2 * y], bgh[y], dmax[y])
+
+
+@njit(cache=True)
+def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
+    """``dmax`` (h, w): the largest channel difference of every other pixel of ``img``
+    (H, 3 W) uint8 (RGB rows) from ``bgh`` (h, 3 w), on rows 2, 6, 10, ... (those
+    :func:`median_mad` reads) when ``sample``, else on all the others."""
+    for y in range(dmax.shape[0]):
+        if (y % 4 == 2) == sample:
+            _max_diff_half(img[2 * y], bgh[y], dmax[y])
 
 
 @njit(cache=True)

@@ -24,7 +24,6 @@ from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
 from cell.vision._segment_kernel import (
-    background_rows,
     box_difference,
     difference,
     median15,
@@ -141,11 +140,9 @@ def foreground(
     st = settings
     hh, ww = img.shape[:2]
     h, w = round(hh / 2), round(ww / 2)  # (OpenCV's rounding, half to even)
-    hs, ws = bg_small.shape[:2]
     dmax = np.empty((h, w), np.uint8)
-    bg = np.empty((h, 3 * w), np.uint8)
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(h, 3 * w)
     flat = img.reshape(hh, 3 * ww)
-    background_rows(bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True), bg)
     difference(flat, bg, True, dmax)  # (the rows _median_mad reads)
     med, mad = _median_mad(dmax)
     smooth = 0

@@ -230,18 +230,6 @@ def probe_levels(bg):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def background_rows(bg_small, rows, cols, bgh):  # pragma: no cover (compiled)
-    """``bgh`` (h, 3 w) uint8: ``bg_small`` (hs, ws, 3) resized bilinearly by tables
-    ``rows`` (4, h), ``cols`` (4, w) (see :func:`resize_axis`)."""
-    hs = bg_small.shape[0]
-    inter = np.empty((hs, bgh.shape[1]), np.float32)  # (integers below 2^15: exact)
-    for i in range(hs):
-        interpolate_x(bg_small[i], cols[0], cols[1], cols[2], cols[3], inter[i])
-    for y in range(bgh.shape[0]):
-        lerp_rows(inter[rows[0, y]], inter[rows[1, y]], rows[2, y], rows[3, y], bgh[y])
-
-
-@njit(cache=True)
 def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference of every other pixel of ``img``
     (H, 3 W) uint8 (RGB rows) from ``bgh`` (h, 3 w), on rows 2, 6, 10, ... (those

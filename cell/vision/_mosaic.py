@@ -34,13 +34,13 @@ __all__: list[str] = []  # private to cell.vision
 
 
 class Mosaic:
-    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners;
-    kept as a list) with ``ring`` px around each: their corners ``at`` ((n, 2) int64;
-    also ``at_list``) in a mosaic of ``shape`` (H, W) (both even)."""
+    """The layout of frame windows ``boxes`` (list of (x0, y0, x1, y1) ints; even
+    corners) with ``ring`` px around each: their corners ``at`` ((n, 2) int64; also
+    ``at_list``) in a mosaic of ``shape`` (H, W) (both even)."""
 
-    def __init__(self, boxes: np.ndarray, ring: int) -> None:
+    def __init__(self, boxes: list[tuple[int, int, int, int]], ring: int) -> None:
         ring += ring & 1  # even, so that the windows sit at even places
-        box_list = boxes.tolist()
+        box_list = list(boxes)
         at = []
         x = ring
         for x0, _, x1, _ in box_list:

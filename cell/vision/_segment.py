@@ -241,20 +241,23 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     st = view.settings
     h, w = view.fg.shape
     hh, hw = view.mask.shape
-    x, y, bw, bh = np.array([cv2.boundingRect(c) for c in parts]).T
-    hx0, hy0 = np.maximum(x - 4, 0), np.maximum(y - 4, 0)  # the box and 4 px, half scale
-    hx1, hy1 = np.minimum(x + bw + 4, hw), np.minimum(y + bh + 4, hh)
-    boxes = np.stack((2 * hx0, 2 * hy0, np.minimum(2 * hx1, w), np.minimum(2 * hy1, h)), 1)
+    boxes, corners = [], []  # full-scale windows; their half-scale corners
+    for c in parts:
+        x, y, bw, bh = cv2.boundingRect(c)
+        hx0, hy0 = max(x - 4, 0), max(y - 4, 0)  # the box and 4 px, half scale
+        boxes.append((2 * hx0, 2 * hy0, min(2 * (x + bw + 4), 2 * hw, w),
+                      min(2 * (y + bh + 4), 2 * hh, h)))
+        corners.append((hx0, hy0))
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
-    shift = (mos.at // 2 + 1 - np.stack((hx0, hy0), 1)).tolist()
-    cv2.drawContours(near, [c + s for c, s in zip(parts, shift, strict=True)], -1, 1, -1)
+    for c, (mx, my), (hx0, hy0) in zip(parts, mos.at_list, corners, strict=True):
+        cv2.drawContours(near, [c], 0, 1, -1, offset=(mx // 2 + 1 - hx0, my // 2 + 1 - hy0))
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)
     refine(view.img, view.bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True),
-           boxes.astype(np.int64), mos.at, near, view.threshold, view.smooth, st.edge_level,
+           np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth, st.edge_level,
            np.float32(keep), view.fg, sub)  # (a light table casts no shadows)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:

@@ -54,8 +54,8 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
                 hole.append(True)
             j = hier[j][0]
     lengths = [len(m) for m in members]
-    pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
-    outline, normals = outline_normals_many(pts, np.array(lengths), np.array(hole))
+    outline, normals = outline_normals_many(np.concatenate(members).reshape(-1, 2),
+                                            np.array(lengths), np.array(hole), np.array(shifts))
     ends = np.cumsum(lengths).tolist()
     pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
     blobs: list[Blob] = []
@@ -95,30 +95,33 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     return p + 0.5 * n, n
 
 
-def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,
-                         hole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`outline_normals` of many contours at once (compiled): ``pts`` (M, 2) int
-    pixels, the contours one after another, ``lengths`` (n,) their point counts (at
-    least 1), ``hole`` (n,) bool which of them are holes. The tangent at point i of a
+def outline_normals_many(pts: np.ndarray, lengths: np.ndarray, hole: np.ndarray,
+                         shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`outline_normals` of many contours at once (compiled): ``pts`` (M, 2) int32
+    pixels, the contours one after another, each moved by its ``shifts`` ((n, 2) int)
+    first, ``lengths`` (n,) their point counts (at least 1), ``hole`` (n,) bool which
+    of them are holes. The tangent at point i of a
     contour of k points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
     (findContours traces outer boundaries one way and holes the other) is the sign of
     its area (shoelace, as ``cv2.contourArea(oriented=True)``, exact on pixels)."""
     out = np.empty((len(pts), 2))
     nrm = np.empty((len(pts), 2))
-    _normals(np.ascontiguousarray(pts, dtype=np.int64), np.asarray(lengths, np.int64),
-             np.asarray(hole, np.bool_), out, nrm)
+    _normals(np.ascontiguousarray(pts, dtype=np.int32), np.asarray(lengths, np.int64),
+             np.asarray(hole, np.bool_), np.asarray(shifts, np.int64), out, nrm)
     return out, nrm
 
 
 @njit(cache=True)
-def _normals(pts, lengths, hole, out, nrm):  # pragma: no cover (compiled)
+def _normals(pts, lengths, hole, shifts, out, nrm):  # pragma: no cover (compiled)
     start = 0
     for c in range(lengths.shape[0]):
         k = lengths[c]
+        sx, sy = shifts[c, 0], shifts[c, 1]
         area = 0  # twice the signed area
-        for i in range(k):
+        for i in range(k):  # (moving a polygon keeps its area)
             j = start + (i + 1) % k
-            area += pts[start + i, 0] * pts[j, 1] - pts[j, 0] * pts[start + i, 1]
+            area += (np.int64(pts[start + i, 0]) * pts[j, 1]
+                     - np.int64(pts[j, 0]) * pts[start + i, 1])
         sign = -1.0 if (area < 0) != hole[c] else 1.0  # t turned by +90 deg where -1
         for i in range(k):
             a, b = start + (i + 2) % k, start + (i - 2) % k
@@ -126,8 +129,8 @@ def _normals(pts, lengths, hole, out, nrm):  # pragma: no cover (compiled)
             norm = max(math.sqrt(tx * tx + ty * ty), 1e-9)
             nx, ny = sign * ty / norm, -sign * tx / norm
             nrm[start + i, 0], nrm[start + i, 1] = nx, ny
-            out[start + i, 0] = pts[start + i, 0] + 0.5 * nx
-            out[start + i, 1] = pts[start + i, 1] + 0.5 * ny
+            out[start + i, 0] = (pts[start + i, 0] + sx) + 0.5 * nx
+            out[start + i, 1] = (pts[start + i, 1] + sy) + 0.5 * ny
         start += k
 
 
@@ -159,7 +162,9 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
     h, w = shape
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
     box_of = [mos.which(int(cs[j][0, 0, 0])) for j in outer]
-    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
+    n_outer = [0] * len(mos.boxes)
+    for k in box_of:
+        n_outer[k] += 1
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     labels: dict[int, np.ndarray] = {}
     for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):

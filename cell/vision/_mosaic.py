@@ -27,6 +27,8 @@ from cell.vision._segment_kernel import (
     is_shadow,
     lerp_rows,
     max_diff,
+    smooth_column,
+    smooth_row,
     upper_median,
 )
 
@@ -63,12 +65,13 @@ class Mosaic:
 
 
 @njit(cache=True)
-def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
+def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, keep,
            fg, sub):  # pragma: no cover (compiled)
     """Refine each window ``boxes[i]`` (x0, y0, x1, y1) of ``img`` (H, W, 3) uint8 alone:
 
     1. the largest channel difference ``d`` of the image (box-filtered ``k`` x ``k``
-       first when ``k`` > 0, rounded to nearest) from the background (``bg_small``
+       first when ``k`` > 0, rounded to nearest; or by the Gaussian ``taps`` (k,)
+       float32 when not empty) from the background (``bg_small``
        resized bilinearly by tables ``rows`` (4, H), ``cols`` (4, W));
     2. its foreground: above ``level`` (float; uint8 compared with its floor), 3x3-opened,
        added (255) to ``fg`` (H, W) uint8;
@@ -93,6 +96,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
     win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
     sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
     acc = np.empty(wmax * 3, np.uint16)
+    colf = np.empty((wmax + 2 * pad) * 3, np.float32)  # (Gaussian smoothing)
+    accf = np.empty(wmax * 3, np.float32)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
@@ -108,7 +113,14 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, edge, keep,
         mx, my = at[i, 0], at[i, 1]
         h, w = y1 - y0, x1 - x0
         window(flat, x0, y0, h, w, pad, win)
-        if k:
+        if k and taps.shape[0]:
+            m = 3 * (w + k - 1)
+            for y in range(h):
+                for i in range(k):
+                    smooth_column(win[y + pad - r + i, 3 * (pad - r) : 3 * (pad - r) + m],
+                                  taps[i], i == 0, colf[:m])
+                smooth_row(colf, taps, accf, src[y, : 3 * w])
+        elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):

@@ -32,6 +32,7 @@ from cell.vision._segment_kernel import (
     open2,
     probe_levels,
     resize_axis,
+    smoothing_taps,
 )
 from cell.vision.settings import VisionSettings
 
@@ -49,7 +50,8 @@ class FrameView:
     ``dmax`` uint8 (H/2, W/2) the largest channel difference from it at half scale,
     ``mask`` its foreground (0/255) at ``threshold`` grey levels; ``fg`` uint8 (H, W)
     the full-scale foreground, filled in around each blob as it is refined; ``smooth``
-    the box filter applied before differencing (0: none); ``backlit`` whether the
+    the aperture of the filter applied before differencing (0: none; Gaussian of
+    ``settings.smooth_sigma``, or a box filter when that is 0); ``backlit`` whether the
     background is a bright light table; ``max_px``/``min_px`` the longest blob side (px)
     and the smallest blob area (px^2) kept, at full scale.
     """
@@ -134,7 +136,8 @@ def foreground(
     background (resized to half scale, bilinear).
 
     The difference is the largest channel difference (grey levels). Only when the frame
-    is noisy (MAD above 2 grey levels) is the image box-filtered (``smooth``) first, so
+    is noisy (MAD above 2 grey levels) is the image smoothed (``smooth`` px: Gaussian of
+    ``smooth_sigma``, or a box filter) first, so
     clean frames keep sharp edges; the smoothing used is returned (0: none).
     """
     st = settings
@@ -148,7 +151,8 @@ def foreground(
     smooth = 0
     if st.smooth and mad > 2.0:  # noisy: average the image before differencing
         smooth = st.smooth
-        box_difference(flat, bg, smooth, dmax)  # at full scale, as each blob's box is
+        taps = smoothing_taps(smooth, st.smooth_sigma)
+        box_difference(flat, bg, smooth, taps, dmax)  # at full scale, as each blob's box is
         med, mad = _median_mad(dmax)
     else:
         difference(flat, bg, False, dmax)
@@ -257,7 +261,8 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)
     refine(view.img, view.bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True),
-           np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth, st.edge_level,
+           np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth,
+           smoothing_taps(view.smooth, st.smooth_sigma), st.edge_level,
            np.float32(keep), view.fg, sub)  # (a light table casts no shadows)
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:

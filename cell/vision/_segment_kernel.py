@@ -261,11 +261,49 @@ def _max_diff_half(src, bg, out):  # pragma: no cover (compiled)
         out[x] = max(max(d0, d1), d2)
 
 
+def smoothing_taps(k: int, sigma: float) -> np.ndarray:
+    """(k,) float32: the Gaussian weights (``sigma`` px, summing to 1) of a k-tap
+    smoothing filter, as ``cv2.getGaussianKernel``; empty for sigma 0 (a box filter)."""
+    if sigma <= 0:
+        return np.empty(0, np.float32)
+    x = np.arange(k) - (k - 1) / 2
+    taps = np.exp(-x * x / (2 * sigma * sigma))
+    return (taps / taps.sum()).astype(np.float32)
+
+
 @njit(cache=True)
-def box_difference(img, bgh, k, dmax):  # pragma: no cover (compiled)
+def smooth_row(col, taps, acc, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: the horizontal pass of the separable Gaussian ``taps`` (k,)
+    float32 over ``col`` (n + 3 (k - 1),) float32 (its vertical pass: RGB, k // 2 px
+    beyond both ends), rounded to nearest; ``acc`` (n,) float32 scratch."""
+    k, n = taps.shape[0], out.shape[0]
+    acc[:n] = 0
+    for j in range(k):
+        part, t, a = col[3 * j : 3 * j + n], taps[j], acc[:n]
+        for e in range(n):
+            a[e] += t * part[e]
+    for e in range(n):
+        out[e] = min(acc[e] + np.float32(0.5), np.float32(255))
+
+
+@njit(cache=True)
+def smooth_column(row, t, first, col):  # pragma: no cover (compiled)
+    """Add ``t`` (float32) times uint8 ``row`` to float32 ``col`` (same length), or set
+    ``col`` to it when ``first``."""
+    if first:
+        for e in range(col.shape[0]):
+            col[e] = np.float32(0) + t * row[e]
+    else:
+        for e in range(col.shape[0]):
+            col[e] += t * row[e]
+
+
+@njit(cache=True)
+def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
-    ``cv2.blur`` k x k of ``img`` (H, 3 W) uint8 (RGB rows; borders mirrored, rounded to
-    nearest) at every other pixel."""
+    ``img`` (H, 3 W) uint8 (RGB rows) smoothed k x k (borders mirrored) at every other
+    pixel: by ``cv2.blur`` (rounded to nearest) when ``taps`` is empty, else by the
+    separable Gaussian ``taps`` (:func:`smooth_row`)."""
     hh, n = img.shape
     ww = n // 3
     h = dmax.shape[0]
@@ -273,6 +311,20 @@ def box_difference(img, bgh, k, dmax):  # pragma: no cover (compiled)
     col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
     box = np.empty(3 * ww, np.uint8)
     acc = np.empty(3 * ww, np.uint16)
+    if taps.shape[0]:
+        colf = np.empty(3 * (ww + 2 * r), np.float32)
+        accf = np.empty(3 * ww, np.float32)
+        inner = colf[3 * r : 3 * (r + ww)]
+        for y in range(h):
+            for i in range(k):
+                smooth_column(img[border(2 * y - r + i, hh)], taps[i], i == 0, inner)
+            for j in range(r):  # the mirrored columns
+                for c in range(3):
+                    colf[3 * j + c] = inner[3 * border(j - r, ww) + c]
+                    colf[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
+            smooth_row(colf, taps, accf, box)
+            _max_diff_half(box, bgh[y], dmax[y])
+        return
     for y in range(h):
         inner = col[3 * r : 3 * (r + ww)]
         row = img[border(2 * y - r, hh)]

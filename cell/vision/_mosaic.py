@@ -71,7 +71,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
 
     1. the largest channel difference ``d`` of the image (box-filtered ``k`` x ``k``
        first when ``k`` > 0, rounded to nearest; or by the Gaussian ``taps`` (k,)
-       float32 when not empty) from the background (``bg_small``
+       uint16 in 1/256 when not empty) from the background (``bg_small``
        resized bilinearly by tables ``rows`` (4, H), ``cols`` (4, W));
     2. its foreground: above ``level`` (float; uint8 compared with its floor), 3x3-opened,
        added (255) to ``fg`` (H, W) uint8;
@@ -96,8 +96,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
     sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
     acc = np.empty(wmax * 3, np.uint16)
-    colf = np.empty((wmax + 2 * pad) * 3, np.float32)  # (Gaussian smoothing)
-    accf = np.empty(wmax * 3, np.float32)
+    colf = np.empty((wmax + 2 * pad) * 3, np.uint16)  # (Gaussian smoothing)
+    accf = np.empty(wmax * 3, np.uint32)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x

@@ -262,40 +262,46 @@ def _max_diff_half(src, bg, out):  # pragma: no cover (compiled)
 
 
 def smoothing_taps(k: int, sigma: float) -> np.ndarray:
-    """(k,) float32: the Gaussian weights (``sigma`` px, summing to 1) of a k-tap
-    smoothing filter, as ``cv2.getGaussianKernel``; empty for sigma 0 (a box filter)."""
-    if sigma <= 0:
-        return np.empty(0, np.float32)
+    """(k,) uint16: the Gaussian weights (``sigma`` px, as ``cv2.getGaussianKernel``) of
+    a k-tap smoothing filter in 1/256 (rounded; the centre tap takes the rounding so
+    that they sum to 256); empty for sigma 0 (a box filter) or no filter (k = 0)."""
+    if sigma <= 0 or k == 0:
+        return np.empty(0, np.uint16)
     x = np.arange(k) - (k - 1) / 2
     taps = np.exp(-x * x / (2 * sigma * sigma))
-    return (taps / taps.sum()).astype(np.float32)
-
-
-@njit(cache=True)
-def smooth_row(col, taps, acc, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: the horizontal pass of the separable Gaussian ``taps`` (k,)
-    float32 over ``col`` (n + 3 (k - 1),) float32 (its vertical pass: RGB, k // 2 px
-    beyond both ends), rounded to nearest; ``acc`` (n,) float32 scratch."""
-    k, n = taps.shape[0], out.shape[0]
-    acc[:n] = 0
-    for j in range(k):
-        part, t, a = col[3 * j : 3 * j + n], taps[j], acc[:n]
-        for e in range(n):
-            a[e] += t * part[e]
-    for e in range(n):
-        out[e] = min(acc[e] + np.float32(0.5), np.float32(255))
+    weights = np.rint(256 * taps / taps.sum()).astype(np.int64)
+    weights[k // 2] += 256 - weights.sum()
+    return weights.astype(np.uint16)
 
 
 @njit(cache=True)
 def smooth_column(row, t, first, col):  # pragma: no cover (compiled)
-    """Add ``t`` (float32) times uint8 ``row`` to float32 ``col`` (same length), or set
-    ``col`` to it when ``first``."""
+    """Add weight ``t`` times uint8 ``row`` to uint16 ``col`` (same length), or set
+    ``col`` to it when ``first`` (weights summing to 256: no overflow)."""
     if first:
         for e in range(col.shape[0]):
-            col[e] = np.float32(0) + t * row[e]
+            col[e] = t * row[e]
     else:
         for e in range(col.shape[0]):
             col[e] += t * row[e]
+
+
+@njit(cache=True)
+def smooth_row(col, taps, acc, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: the horizontal pass of the separable filter ``taps`` (k,)
+    (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (its vertical pass, x 256: RGB,
+    k // 2 px beyond both ends), rounded to nearest; ``acc`` (n,) uint32 scratch."""
+    k, n = taps.shape[0], out.shape[0]
+    a = acc[:n]
+    first, t = col[:n], taps[0]
+    for e in range(n):
+        a[e] = t * first[e]
+    for j in range(1, k):
+        part, t = col[3 * j : 3 * j + n], taps[j]
+        for e in range(n):
+            a[e] += t * part[e]
+    for e in range(n):
+        out[e] = (a[e] + 32768) >> 16
 
 
 @njit(cache=True)
@@ -303,7 +309,7 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
     ``img`` (H, 3 W) uint8 (RGB rows) smoothed k x k (borders mirrored) at every other
     pixel: by ``cv2.blur`` (rounded to nearest) when ``taps`` is empty, else by the
-    separable Gaussian ``taps`` (:func:`smooth_row`)."""
+    separable filter ``taps`` (in 1/256, :func:`smooth_row`)."""
     hh, n = img.shape
     ww = n // 3
     h = dmax.shape[0]
@@ -312,8 +318,8 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
     box = np.empty(3 * ww, np.uint8)
     acc = np.empty(3 * ww, np.uint16)
     if taps.shape[0]:
-        colf = np.empty(3 * (ww + 2 * r), np.float32)
-        accf = np.empty(3 * ww, np.float32)
+        colf = np.empty(3 * (ww + 2 * r), np.uint16)
+        accf = np.empty(3 * ww, np.uint32)
         inner = colf[3 * r : 3 * (r + ww)]
         for y in range(h):
             for i in range(k):

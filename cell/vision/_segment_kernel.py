@@ -6,14 +6,17 @@ OpenCV call it replaces, so the detector's answers do not change:
   filtering algorithm*, IEEE TASSP 1979) over column histograms, the median tracked
   from row to row (the counts below and up to it updated by the entering and leaving
   rows, then moved by fine and coarse histogram steps);
-* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background: OpenCV's 11-bit
-  fixed-point weights (:func:`resize_axis`), rows combined as its SIMD path does;
+* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background to full scale,
+  window by window (:mod:`cell.vision._mosaic`): OpenCV's 11-bit fixed-point weights
+  (:func:`resize_axis`), rows combined as its SIMD path does;
 * ``cv2.blur`` (rounded to nearest), ``cv2.absdiff`` and the largest channel, at every other
   pixel; ``cv2.threshold`` (uint8: above the floor of the threshold) and the 2x2
   ``cv2.morphologyEx`` opening (anchor at the kernel's centre (1, 1); the border counts
   neither for erosion nor dilation);
 * histogram medians and MADs, and the per-pixel shadow test of :mod:`cell.vision._segment`.
 
+One step has no OpenCV counterpart: the Gaussian that smooths a noisy frame (when
+``VisionSettings.smooth_sigma`` > 0), separable, in integers (weights in 1/256).
 Images are C-contiguous uint8 so that each kernel compiles once.
 """
 

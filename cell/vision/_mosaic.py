@@ -72,7 +72,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     1. the largest channel difference ``d`` of the image (box-filtered ``k`` x ``k``
        first when ``k`` > 0, rounded to nearest; or by the Gaussian ``taps`` (k,)
        uint16 in 1/256 when not empty) from the background (``bg_small``
-       resized bilinearly by tables ``rows`` (4, H), ``cols`` (4, W));
+       upscaled 8x bilinearly by tables ``rows`` (4, H), ``cols`` (4, W), see
+       :func:`~cell.vision._segment_kernel.upscale_axis`);
     2. its foreground: above ``level`` (float; uint8 compared with its floor), 3x3-opened,
        added (255) to ``fg`` (H, W) uint8;
     3. the window's own part: that foreground where ``near`` (the half-scale mosaic

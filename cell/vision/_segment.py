@@ -31,8 +31,8 @@ from cell.vision._segment_kernel import (
     noise_mad,
     open2,
     probe_levels,
-    resize_axis,
     smoothing_taps,
+    upscale_axis,
 )
 from cell.vision.settings import VisionSettings
 
@@ -260,7 +260,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)
-    refine(view.img, view.bg_small, resize_axis(hs, h, False), resize_axis(ws, w, True),
+    refine(view.img, view.bg_small, upscale_axis(hs, h, False), upscale_axis(ws, w, True),
            np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth,
            smoothing_taps(view.smooth, st.smooth_sigma), st.edge_level,
            np.float32(keep), view.fg, sub)  # (a light table casts no shadows)

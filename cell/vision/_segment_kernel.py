@@ -6,9 +6,9 @@ OpenCV call it replaces, so the detector's answers do not change:
   filtering algorithm*, IEEE TASSP 1979) over column histograms, the median tracked
   from row to row (the counts below and up to it updated by the entering and leaving
   rows, then moved by fine and coarse histogram steps);
-* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background to full scale,
-  window by window (:mod:`cell.vision._mosaic`): OpenCV's 11-bit fixed-point weights
-  (:func:`resize_axis`), rows combined as its SIMD path does;
+* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background by 8, edges
+  repeated, window by window (:mod:`cell.vision._mosaic`): OpenCV's 11-bit fixed-point
+  weights (:func:`upscale_axis`), rows combined as its SIMD path does;
 * ``cv2.blur`` (rounded to nearest), ``cv2.absdiff`` and the largest channel, at every other
   pixel; ``cv2.threshold`` (uint8: above the floor of the threshold) and the 2x2
   ``cv2.morphologyEx`` opening (anchor at the kernel's centre (1, 1); the border counts
@@ -33,14 +33,14 @@ _ONE = 2048  # OpenCV's INTER_RESIZE_COEF_SCALE: 11-bit resize weights
 
 
 @functools.lru_cache(maxsize=16)
-def resize_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
+def upscale_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
     """(4, dst) int64: the source indices i0, i1 and fixed-point weights w0, w1 of
-    ``cv2.resize`` (``INTER_LINEAR``, uint8) along one axis from ``src`` to ``dst``
-    pixels: position (d + 0.5) * src / dst - 0.5 (float32), weights rounded (x 2048).
-    Columns (``clamp``) take the edge pixel alone beyond the first and last centres;
-    rows keep their weights and repeat the edge row (OpenCV's resize does both)."""
-    scale = 1.0 / (dst / src)
-    f = ((np.arange(dst) + 0.5) * scale - 0.5).astype(np.float32)
+    ``cv2.resize`` (``INTER_LINEAR``, uint8) by exactly 8 along one axis of ``src``
+    pixels, for the first ``dst`` output pixels (the edge repeated beyond 8 src):
+    position (d + 0.5) / 8 - 0.5 (float32), weights rounded (x 2048). Columns
+    (``clamp``) take the edge pixel alone beyond the first and last centres; rows keep
+    their weights and repeat the edge row (OpenCV's resize does both)."""
+    f = ((np.arange(dst) + 0.5) / 8 - 0.5).astype(np.float32)
     s = np.floor(f).astype(np.int64)
     f = f - s.astype(np.float32)
     if clamp:
@@ -82,7 +82,7 @@ def lerp_rows(q0, q1, b0, b1, out):  # pragma: no cover (compiled)
 def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled)
     """``out`` (3 n,) float32: small row ``small`` (ws, 3) uint8 interpolated at n
     columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), see
-    :func:`resize_axis`), x 2048 and shifted right by 4 (for :func:`lerp_rows`)."""
+    :func:`upscale_axis`), x 2048 and shifted right by 4 (for :func:`lerp_rows`)."""
     for x in range(j0s.shape[0]):
         j0, j1, a0, a1 = j0s[x], j1s[x], a0s[x], a1s[x]
         for c in range(3):

@@ -103,6 +103,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
     d = np.empty((hmax, wmax), np.uint8)
+    diff = np.empty(wmax * 3, np.uint8)
     near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
     a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
     b = np.empty((hmax + 2, wmax + 2), np.uint8)
@@ -127,7 +128,7 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         for y in range(h):
             srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
             drow, arow = d[y, :w], a[y + 1, 1 : w + 1]
-            max_diff(srow, bg[y, : 3 * w], drow)
+            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], drow)
             for x in range(w):
                 arow[x] = drow[x] > cut
         _open3(a, b, tmp, h, w)  # -> a

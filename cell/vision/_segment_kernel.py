@@ -243,14 +243,13 @@ def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def max_diff(src, bg, out):  # pragma: no cover (compiled)
+def max_diff(src, bg, diff, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of RGB row ``src`` (3 w,) uint8 from
-    ``bg`` (3 w,) uint8."""
+    ``bg`` (3 w,) uint8; ``diff`` (3 w,) uint8 scratch."""
+    for e in range(diff.shape[0]):
+        diff[e] = abs(np.int16(src[e]) - np.int16(bg[e]))
     for x in range(out.shape[0]):
-        d0 = abs(np.int64(src[3 * x]) - np.int64(bg[3 * x]))
-        d1 = abs(np.int64(src[3 * x + 1]) - np.int64(bg[3 * x + 1]))
-        d2 = abs(np.int64(src[3 * x + 2]) - np.int64(bg[3 * x + 2]))
-        out[x] = max(max(d0, d1), d2)
+        out[x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
 
 
 @njit(cache=True)

@@ -118,9 +118,9 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         if k and taps.shape[0]:
             m = 3 * (w + k - 1)
             for y in range(h):
-                for i in range(k):
-                    smooth_column(win[y + pad - r + i, 3 * (pad - r) : 3 * (pad - r) + m],
-                                  taps[i], i == 0, colf[:m])
+                for j in range(k):
+                    smooth_column(win[y + pad - r + j, 3 * (pad - r) : 3 * (pad - r) + m],
+                                  taps[j], j == 0, colf[:m])
                 smooth_row(colf, taps, accf, src[y, : 3 * w])
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)

@@ -8,16 +8,17 @@ box, whether the blob touches the image border, and the part's own pixels.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numba import njit
 
 from cell.vision._mosaic import Mosaic
 
 __all__: list[str] = []  # private to cell.vision
 
-_BATCH = 4  # from this many contours on, outline normals are computed all at once
 
 
 @dataclass
@@ -38,9 +39,8 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
     """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
     (RETR_CCOMP), each with its holes (children of at least 6 points): contour
     ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
-    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of many contours are
-    computed at once (:func:`outline_normals_many`), of a few one by one (the same
-    numbers, with less overhead)."""
+    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all contours are
+    computed at once (:func:`outline_normals_many`)."""
     members, shifts, hole = [], [], []  # each blob's outline, then its holes
     for i, off in zip(outer, offsets, strict=True):
         members.append(contours[i])
@@ -53,15 +53,11 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
                 shifts.append(off)
                 hole.append(True)
             j = hier[j][0]
-    if len(members) < _BATCH:
-        pieces = [outline_normals(m.reshape(-1, 2) + off, hole=h)
-                  for m, off, h in zip(members, shifts, hole, strict=True)]
-    else:
-        lengths = np.array([len(m) for m in members])
-        pts = np.concatenate(members).reshape(-1, 2) + np.repeat(np.array(shifts), lengths, axis=0)
-        outline, normals = outline_normals_many(pts, lengths, np.array(hole))
-        ends = np.cumsum(lengths).tolist()
-        pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
+    lengths = [len(m) for m in members]
+    outline, normals = outline_normals_many(np.concatenate(members).reshape(-1, 2),
+                                            np.array(lengths), np.array(hole), np.array(shifts))
+    ends = np.cumsum(lengths).tolist()
+    pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
     blobs: list[Blob] = []
     for is_hole, piece in zip(hole, pieces, strict=True):
         if is_hole:
@@ -99,41 +95,43 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     return p + 0.5 * n, n
 
 
-def outline_normals_many(pts: np.ndarray, lengths: np.ndarray,
-                         hole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`outline_normals` of many contours at once: ``pts`` (M, 2) int pixels, the
-    contours one after another, ``lengths`` (n,) their point counts (at least 1), ``hole``
-    (n,) bool which of them are holes. The tangent at point i of a contour of k points is
-    p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs (findContours traces
-    outer boundaries one way and holes the other) is the sign of its area (shoelace, as
-    ``cv2.contourArea(oriented=True)``)."""
-    p = pts.astype(np.float64)
-    m = len(p)
-    t = np.empty_like(p)
-    np.subtract(p[4:], p[:-4], out=t[2:-2])  # within a contour; its ends are redone below
-    ends, at, ahead, back, last, first = 0, [], [], [], [], []
-    for k in lengths.tolist():
-        start, ends = ends, ends + k
-        for i in (0, 1, k - 2, k - 1):
-            if 0 <= i < k:
-                at.append(start + i)
-                ahead.append(start + (i + 2) % k)
-                back.append(start + (i - 2) % k)
-        first.append(start)
-        last.append(ends - 1)
-    t[at] = p[ahead] - p[back]
-    nxt = np.arange(1, m + 1)  # each point's successor, wrapped
-    nxt[last] = first
-    q = p[nxt]
-    # twice the signed area, from the cross products of consecutive points
-    flip = (np.add.reduceat(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1], first) < 0) != hole
-    sign = np.repeat(np.where(flip, -1.0, 1.0), lengths)  # t turned by +90 deg where -1
-    norm = np.maximum(np.sqrt(np.einsum("ij,ij->i", t, t)), 1e-9)
-    nrm = np.empty_like(t)
-    nrm[:, 0] = sign * t[:, 1] / norm
-    nrm[:, 1] = -sign * t[:, 0] / norm
-    out = p + 0.5 * nrm
+def outline_normals_many(pts: np.ndarray, lengths: np.ndarray, hole: np.ndarray,
+                         shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`outline_normals` of many contours at once (compiled): ``pts`` (M, 2) int32
+    pixels, the contours one after another, each moved by its ``shifts`` ((n, 2) int)
+    first, ``lengths`` (n,) their point counts (at least 1), ``hole`` (n,) bool which
+    of them are holes. The tangent at point i of a
+    contour of k points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
+    (findContours traces outer boundaries one way and holes the other) is the sign of
+    its area (shoelace, as ``cv2.contourArea(oriented=True)``, exact on pixels)."""
+    out = np.empty((len(pts), 2))
+    nrm = np.empty((len(pts), 2))
+    _normals(np.ascontiguousarray(pts, dtype=np.int32), np.asarray(lengths, np.int64),
+             np.asarray(hole, np.bool_), np.asarray(shifts, np.int64), out, nrm)
     return out, nrm
+
+
+@njit(cache=True)
+def _normals(pts, lengths, hole, shifts, out, nrm):  # pragma: no cover (compiled)
+    start = 0
+    for c in range(lengths.shape[0]):
+        k = lengths[c]
+        sx, sy = shifts[c, 0], shifts[c, 1]
+        area = 0  # twice the signed area
+        for i in range(k):  # (moving a polygon keeps its area)
+            j = start + (i + 1) % k
+            area += (np.int64(pts[start + i, 0]) * pts[j, 1]
+                     - np.int64(pts[j, 0]) * pts[start + i, 1])
+        sign = -1.0 if (area < 0) != hole[c] else 1.0  # t turned by +90 deg where -1
+        for i in range(k):
+            a, b = start + (i + 2) % k, start + (i - 2) % k
+            tx, ty = float(pts[a, 0] - pts[b, 0]), float(pts[a, 1] - pts[b, 1])
+            norm = max(math.sqrt(tx * tx + ty * ty), 1e-9)
+            nx, ny = sign * ty / norm, -sign * tx / norm
+            nrm[start + i, 0], nrm[start + i, 1] = nx, ny
+            out[start + i, 0] = (pts[start + i, 0] + sx) + 0.5 * nx
+            out[start + i, 1] = (pts[start + i, 1] + sy) + 0.5 * ny
+        start += k
 
 
 def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
@@ -157,14 +155,16 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
 def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int], margin: int,
                      min_area: float) -> list[Blob]:
     """Blobs of the outer contours ``cs`` (hierarchy ``hr`` as a list, ``cv2.RETR_CCOMP``)
-    of ``sub`` (uint8 0/1), a mosaic ``mos`` of windows of a
+    of ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a
     frame of ``shape`` (H, W), window by window: those of at least 8 points and
     ``min_area`` px^2, partial within ``margin`` px of the frame's edge, each with its own
     pixels (uint8 0/255, its window's shape) as ``roi``."""
     h, w = shape
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = [int(mos.label[cs[j][0, 0, 1], cs[j][0, 0, 0]]) for j in outer]
-    n_outer = np.bincount(box_of, minlength=len(mos.boxes)).tolist()
+    box_of = [mos.which(int(cs[j][0, 0, 0])) for j in outer]
+    n_outer = [0] * len(mos.boxes)
+    for k in box_of:
+        n_outer[k] += 1
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     labels: dict[int, np.ndarray] = {}
     for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
@@ -182,7 +182,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
         boxes.append((bx, by, bbw, bbh))
         win = mos.window(sub, k)
         if n_outer[k] == 1:
-            own = cv2.compare(win, 0, cv2.CMP_GT)
+            own = win.copy()
         else:  # this part's pixels only, not a neighbour's
             if k not in labels:
                 labels[k] = cv2.connectedComponents(win, connectivity=8)[1]

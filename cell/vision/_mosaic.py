@@ -1,109 +1,300 @@
-"""Many windows of one frame side by side in one image, a mosaic, so that an operation
-meant for each window alone runs as one OpenCV call on all of them.
+"""Many windows of one frame side by side in one image, a mosaic, so that one
+``cv2.findContours`` call traces the outlines of all of them; and the compiled refinement
+(numba) that fills that mosaic, window by window, each as if alone.
 
 Window ``k`` of the frame (full scale, ``[y0:y1, x0:x1]``, even corners) sits in the
 mosaic at ``at[k]`` = (x, y) (even), in a row, ``2 ring`` px from the next window and
-``ring`` px from the mosaic's edge (``ring`` rounded up to even). Its background is what one 8x bilinear
-upscaling (``cv2.resize``) of the frame's 1/8-scale background blocks around all the
-windows, laid side by side, gives there: exactly what upscaling the whole 1/8-scale image
-would (each block keeps one small pixel around what its window needs; beyond the image,
-the edge pixel repeated, as ``cv2.resize`` does there).
+``ring`` px from the mosaic's edge (``ring`` rounded up to even).
 
-A 3x3 opening in the mosaic equals that opening in each window alone (whose borders do
-not count for erosion nor dilation, OpenCV's default), as long as the gaps stay neutral:
-full (255) while eroding, empty while dilating.
+The refinement of a window (:func:`refine`) works on the frame itself: its background is
+what one 8x bilinear upscaling (``cv2.resize``) of the whole 1/8-scale background gives
+there, its box filter and 3x3 mean mirror the frame's edges (``BORDER_REFLECT_101``), and
+its 3x3 openings (``cv2.MORPH_OPEN``) ignore what lies beyond the window, as OpenCV's
+morphology ignores an image's border.
 """
 
 from __future__ import annotations
 
-import cv2
+from bisect import bisect_right
+
 import numpy as np
+from numba import njit
+
+from cell.vision._segment_kernel import (
+    border,
+    box_row,
+    interpolate_x,
+    is_shadow,
+    lerp_rows,
+    max_diff,
+    smooth_column,
+    smooth_row,
+    upper_median,
+)
 
 __all__: list[str] = []  # private to cell.vision
 
-_S = 8  # the background's downscale factor
-MAX_WINDOWS = 255  # windows in one mosaic (its label image is uint8, 255 for none)
-_K3 = np.ones((3, 3), np.uint8)
-
 
 class Mosaic:
-    """The layout of frame windows ``boxes`` ((n, 4) int x0, y0, x1, y1; even corners;
-    kept as a list) with ``ring`` px around each, their corners ``at`` ((n, 2) int; also
-    ``at_list``) in the mosaic, and the background there: ``bg`` uint8 RGB (H, W, 3)
-    upscaled from ``bg_small`` (uint8 RGB, the frame's background at 1/8 scale; undefined
-    off the windows); ``inside`` uint8 (H, W), 255 on the windows and 0 between them
-    (``outside`` the reverse); ``label`` uint8 (H, W) the window of each pixel (255
-    between; at most 255 windows)."""
+    """The layout of frame windows ``boxes`` (list of (x0, y0, x1, y1) ints; even
+    corners) with ``ring`` px around each: their corners ``at`` ((n, 2) int64; also
+    ``at_list``) in a mosaic of ``shape`` (H, W) (both even)."""
 
-    def __init__(self, boxes: np.ndarray, bg_small: np.ndarray, ring: int) -> None:
-        hs, ws = bg_small.shape[:2]
+    def __init__(self, boxes: list[tuple[int, int, int, int]], ring: int) -> None:
         ring += ring & 1  # even, so that the windows sit at even places
-        padded = cv2.copyMakeBorder(bg_small, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
-        blocks, up_at, at = [], [], []
-        width = 0
+        box_list = list(boxes)
+        at = []
         x = ring
-        box_list = boxes.tolist()
-        for x0, y0, x1, y1 in box_list:
-            # padded-block rows and columns: one small pixel beyond those the window samples
-            i0, j0 = y0 // _S, x0 // _S
-            i1, j1 = min(-(-y1 // _S) + 2, hs + 2), min(-(-x1 // _S) + 2, ws + 2)
-            blocks.append(padded[i0:i1, j0:j1])
-            # the small column j0 - 1 (padded j0) centres at 8 (j0 - 1) + 3.5 in the frame
-            up_at.append((_S * (width - j0 + 1) + x0, _S * (1 - i0) + y0))
-            width += j1 - j0
+        for x0, _, x1, _ in box_list:
             at.append((x, ring))
             x += x1 - x0 + ((x1 - x0) & 1) + 2 * ring
-        small = np.zeros((max(b.shape[0] for b in blocks), width, 3), np.uint8)
-        j = 0
-        for b in blocks:
-            small[: b.shape[0], j : j + b.shape[1]] = b
-            j += b.shape[1]
-        up = cv2.resize(small, (width * _S, small.shape[0] * _S), interpolation=cv2.INTER_LINEAR)
         tallest = max(y1 - y0 for _, y0, _, y1 in box_list)
-        h, w = tallest + (tallest & 1) + 2 * ring, x - ring
-        self.boxes, self.at_list, self.at = box_list, at, np.array(at)
-        self.bg = np.empty((h, w, 3), np.uint8)  # (only the windows are read)
-        self.label = np.full((h, w), 255, np.uint8)
-        for k, ((mx, my), (ux, uy), (x0, y0, x1, y1)) in enumerate(zip(at, up_at, box_list,
-                                                                        strict=True)):
-            self.bg[my : my + y1 - y0, mx : mx + x1 - x0] = up[uy : uy + y1 - y0, ux : ux + x1 - x0]
-            self.label[my : my + y1 - y0, mx : mx + x1 - x0] = k
-        self.inside = cv2.compare(self.label, 255, cv2.CMP_NE)
-        self.outside = cv2.bitwise_not(self.inside)
+        self.shape = (tallest + (tallest & 1) + 2 * ring, x - ring)
+        self.boxes, self.at_list, self.at = box_list, at, np.array(at, np.int64)
+        self._xs = [mx for mx, _ in at]
 
-    def window(self, a: np.ndarray, k: int, ring: int = 0) -> np.ndarray:
-        """The view of mosaic-shaped array ``a`` on window ``k`` (and ``ring`` px around)."""
+    def window(self, a: np.ndarray, k: int) -> np.ndarray:
+        """The view of mosaic-shaped array ``a`` on window ``k``."""
         mx, my = self.at_list[k]
         x0, y0, x1, y1 = self.boxes[k]
-        return a[my - ring : my + y1 - y0 + ring, mx - ring : mx + x1 - x0 + ring]
+        return a[my : my + y1 - y0, mx : mx + x1 - x0]
 
-    def paste(self, img: np.ndarray, ring: int) -> np.ndarray:
-        """The windows of uint8 RGB frame ``img`` (H, W, 3) in a mosaic (undefined between),
-        each with ``ring`` px (at most the layout's) of the frame around it, mirrored beyond
-        the frame's edge (``cv2.BORDER_REFLECT_101``, as OpenCV's filters extend an image)."""
-        out = np.empty(self.bg.shape, np.uint8)
-        h, w = img.shape[:2]
-        for k, (x0, y0, x1, y1) in enumerate(self.boxes):
-            xa, ya, xb, yb = max(x0 - ring, 0), max(y0 - ring, 0), min(x1 + ring, w), min(y1 + ring, h)
-            piece = img[ya:yb, xa:xb]
-            if (xa, ya, xb, yb) != (x0 - ring, y0 - ring, x1 + ring, y1 + ring):
-                piece = cv2.copyMakeBorder(piece, ya - y0 + ring, y1 + ring - yb,
-                                           xa - x0 + ring, x1 + ring - xb, cv2.BORDER_REFLECT_101)
-            self.window(out, k, ring)[...] = piece
-        return out
+    def which(self, x: int) -> int:
+        """The window at mosaic column ``x`` (one of its columns)."""
+        return bisect_right(self._xs, x) - 1
 
-    def open3(self, mask: np.ndarray) -> np.ndarray:
-        """A 3x3 opening (``cv2.MORPH_OPEN``) of each window of uint8 ``mask`` (zero
-        between windows) on its own; zero between windows."""
-        eroded = cv2.bitwise_and(cv2.erode(cv2.bitwise_or(mask, self.outside), _K3), self.inside)
-        return cv2.bitwise_and(cv2.dilate(eroded, _K3), self.inside)
 
-    def medians(self, a: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(upper median, count) of uint8 mosaic ``a`` over each window's pixels where
-        uint8 ``where`` is nonzero (as ``np.partition(v, len(v) // 2)``; 0 where none),
-        from one histogram of (window, value) pairs (``cv2.calcHist``)."""
-        n = len(self.boxes)
-        hist = cv2.calcHist([self.label, a], [0, 1], where, [n, 256], [0, n, 0, 256])
-        cum = np.cumsum(hist.astype(np.int64), axis=1)
-        count = cum[:, -1]
-        return np.count_nonzero(cum <= (count // 2)[:, None], axis=1), count
+@njit(cache=True)
+def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, keep,
+           fg, sub):  # pragma: no cover (compiled)
+    """Refine each window ``boxes[i]`` (x0, y0, x1, y1) of ``img`` (H, W, 3) uint8 alone:
+
+    1. the largest channel difference ``d`` of the image (box-filtered ``k`` x ``k``
+       first when ``k`` > 0, rounded to nearest; or by the Gaussian ``taps`` (k,)
+       uint16 in 1/256 when not empty) from the background (``bg_small``
+       upscaled 8x bilinearly by tables ``rows`` (4, H), ``cols`` (4, W), see
+       :func:`~cell.vision._segment_kernel.upscale_axis`);
+    2. its foreground: above ``level`` (float; uint8 compared with its floor), 3x3-opened,
+       added (255) to ``fg`` (H, W) uint8;
+    3. the window's own part: that foreground where ``near`` (the half-scale mosaic
+       framed by one empty pixel, uint8, 1 on the blob's filled contour), 3x3-dilated
+       and doubled, is set;
+    4. the re-threshold: ``level`` or ``edge`` times the upper median of ``d`` over the
+       own part, whichever is higher, floored (at most 255);
+    5. ``d`` above it near the own part (3x3-dilated), less shadow (when ``keep`` =
+       1 - chroma < 1; :func:`drop_shadow`), 3x3-opened:
+       written (255) to ``sub`` (the mosaic, zero) at ``at[i]``.
+    """
+    hh, ww = img.shape[:2]
+    flat = img.reshape(hh, ww * 3)
+    r = k // 2
+    pad = max(r, 1)  # the image around each window: the support of the filters
+    hmax, wmax, small = 1, 1, 1
+    for i in range(boxes.shape[0]):
+        hmax = max(hmax, boxes[i, 3] - boxes[i, 1])
+        wmax = max(wmax, boxes[i, 2] - boxes[i, 0])
+        small = max(small, rows[1, boxes[i, 3] - 1] - rows[0, boxes[i, 1]] + 1)
+    win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
+    sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
+    acc = np.empty(wmax * 3, np.uint16)
+    colf = np.empty((wmax + 2 * pad) * 3, np.uint16)  # (Gaussian smoothing)
+    accf = np.empty(wmax * 3, np.uint32)
+    src = np.empty((hmax, wmax * 3), np.uint8)
+    bg = np.empty((hmax, wmax * 3), np.uint8)
+    inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
+    d = np.empty((hmax, wmax), np.uint8)
+    diff = np.empty(wmax * 3, np.uint8)
+    near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
+    a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
+    b = np.empty((hmax + 2, wmax + 2), np.uint8)
+    tmp = np.empty((hmax + 2, wmax), np.uint8)
+    hist = np.empty(256, np.int64)
+    cut = np.int64(np.floor(level))
+    for i in range(boxes.shape[0]):
+        x0, y0, x1, y1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
+        mx, my = at[i, 0], at[i, 1]
+        h, w = y1 - y0, x1 - x0
+        window(flat, x0, y0, h, w, pad, win)
+        if k and taps.shape[0]:
+            m = 3 * (w + k - 1)
+            for y in range(h):
+                for j in range(k):
+                    smooth_column(win[y + pad - r + j, 3 * (pad - r) : 3 * (pad - r) + m],
+                                  taps[j], j == 0, colf[:m])
+                smooth_row(colf, taps, accf, src[y, : 3 * w])
+        elif k:
+            _box(win, pad - r, h, w, k, sums, acc, src)
+        _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
+        for y in range(h):
+            srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
+            drow, arow = d[y, :w], a[y + 1, 1 : w + 1]
+            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], drow)
+            for x in range(w):
+                arow[x] = drow[x] > cut
+        _open3(a, b, tmp, h, w)  # -> a
+        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, tmp, near_win)
+        hist[:] = 0
+        n = 0
+        for y in range(h):
+            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y, :w]
+            for x in range(w):
+                frow[x] |= 255 * arow[x]
+            nrow = near_win[y // 2]
+            for x in range(w):
+                arow[x] &= nrow[x >> 1]  # a: the own part
+            for x in range(w):
+                if arow[x]:
+                    hist[drow[x]] += 1
+                    n += 1
+        again = level
+        if n > 0:
+            again = max(level, edge * upper_median(hist, n))
+        again_cut = min(np.int64(np.floor(again)), 255)
+        _frame(a, h, w, 0)
+        _max3(a, b, tmp, h, w)  # b: the own part dilated
+        for y in range(h):
+            brow, drow = b[y + 1, 1 : w + 1], d[y, :w]
+            for x in range(w):
+                brow[x] = brow[x] & (drow[x] > again_cut)
+        if keep < 1:
+            drop_shadow(b, win, pad, bg, h, w, keep, sums)
+        _open3(b, a, tmp, h, w)  # -> b
+        for y in range(h):
+            brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
+            for x in range(w):
+                out[x] = 255 * brow[x]
+
+
+@njit(cache=True)
+def window(flat, x0, y0, h, w, pad, win):  # pragma: no cover (compiled)
+    """``win`` (h + 2 pad, 3 (w + 2 pad)): the window of image ``flat`` (H, 3 W) and
+    ``pad`` px around it, mirrored past the image's edges."""
+    hh, ww = flat.shape[0], flat.shape[1] // 3
+    xa, xb = x0 - pad, x0 + w + pad
+    lo, hi = max(xa, 0), min(xb, ww)
+    for i in range(h + 2 * pad):
+        row = flat[border(y0 - pad + i, hh)]
+        out = win[i]
+        inner, part = out[3 * (lo - xa) : 3 * (hi - xa)], row[3 * lo : 3 * hi]
+        for e in range(inner.shape[0]):
+            inner[e] = part[e]
+        for x in range(xa, lo):
+            j = 3 * border(x, ww)
+            for c in range(3):
+                out[3 * (x - xa) + c] = row[j + c]
+        for x in range(hi, xb):
+            j = 3 * border(x, ww)
+            for c in range(3):
+                out[3 * (x - xa) + c] = row[j + c]
+
+
+@njit(cache=True)
+def _box(win, o, h, w, k, sums, acc, src):  # pragma: no cover (compiled)
+    """``src`` (h, 3 w): the k x k mean (rounded to nearest) of window ``win`` whose
+    window pixels start ``o + k // 2`` px in; ``sums`` and ``acc`` scratch."""
+    n = 3 * (w + k - 1)
+    col = sums[:n]
+    for y in range(h):
+        first = win[y + o, 3 * o : 3 * o + n]
+        for e in range(n):
+            col[e] = first[e]
+        for i in range(y + o + 1, y + o + k):
+            row = win[i, 3 * o : 3 * o + n]
+            for e in range(n):
+                col[e] += row[e]
+        box_row(col, k, acc[: 3 * w], src[y, : 3 * w])
+
+
+@njit(cache=True)
+def _background(bg_small, rows, cols, x0, y0, h, w, inter, bg):  # pragma: no cover
+    """``bg`` (h, 3 w): the full-scale background of window (x0, y0, h, w)."""
+    lo = rows[0, y0]
+    for i in range(lo, rows[1, y0 + h - 1] + 1):
+        interpolate_x(bg_small[i], cols[0, x0 : x0 + w], cols[1, x0 : x0 + w],
+                      cols[2, x0 : x0 + w], cols[3, x0 : x0 + w], inter[i - lo, : 3 * w])
+    for y in range(h):
+        lerp_rows(inter[rows[0, y0 + y] - lo], inter[rows[1, y0 + y] - lo], rows[2, y0 + y],
+                  rows[3, y0 + y], bg[y, : 3 * w])
+
+
+@njit(cache=True)
+def _dilated(near, x0, y0, w, h, tmp, out):  # pragma: no cover (compiled)
+    """``out`` (h, w): the 3x3 dilation of ``near`` (framed by one empty pixel) on its
+    window from (x0, y0) (unframed coordinates); ``tmp`` scratch."""
+    for y in range(h + 2):
+        s0, s1, s2, t = near[y0 + y, x0 : x0 + w], near[y0 + y, x0 + 1 : x0 + w + 1], \
+            near[y0 + y, x0 + 2 : x0 + w + 2], tmp[y, :w]
+        for x in range(w):
+            t[x] = max(max(s0[x], s1[x]), s2[x])
+    for y in range(h):
+        t0, t1, t2, o = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], out[y, :w]
+        for x in range(w):
+            o[x] = max(max(t0[x], t1[x]), t2[x])
+
+
+@njit(cache=True)
+def drop_shadow(b, win, pad, bg, h, w, keep, sums):  # pragma: no cover (compiled)
+    """Clear the shadow pixels (:func:`~cell.vision._segment_kernel.is_shadow`) of the
+    (h, w) window of ``b`` (padded by one pixel), from the 3x3 mean (rounded to nearest)
+    of ``win`` (the image there and ``pad`` >= 1 px around, flat (h + 2 pad, 3 (w + 2 pad)),
+    from :func:`window`) and background ``bg`` (h, 3 w) uint8; ``sums`` scratch."""
+    n = 3 * (w + 2)
+    col = sums[:n]
+    for y in range(h):
+        j = 3 * (pad - 1)
+        row0, row1, row2 = win[y + pad - 1, j : j + n], win[y + pad, j : j + n], win[y + pad + 1, j : j + n]
+        for e in range(n):
+            col[e] = np.uint16(row0[e]) + row1[e] + row2[e]
+        brow, grow = b[y + 1], bg[y]
+        for x in range(w):
+            if brow[x + 1]:
+                m0 = (2 * (np.int64(col[3 * x]) + col[3 * x + 3] + col[3 * x + 6]) + 9) // 18
+                m1 = (2 * (np.int64(col[3 * x + 1]) + col[3 * x + 4] + col[3 * x + 7]) + 9) // 18
+                m2 = (2 * (np.int64(col[3 * x + 2]) + col[3 * x + 5] + col[3 * x + 8]) + 9) // 18
+                if is_shadow(m0, m1, m2, grow[3 * x], grow[3 * x + 1], grow[3 * x + 2], keep):
+                    brow[x + 1] = 0
+
+
+@njit(cache=True)
+def _frame(m, h, w, value):  # pragma: no cover (compiled)
+    """Set the one-pixel frame around the (h, w) window of padded mask ``m``."""
+    for x in range(w + 2):
+        m[0, x] = value
+        m[h + 1, x] = value
+    for y in range(h + 2):
+        m[y, 0] = value
+        m[y, w + 1] = value
+
+
+@njit(cache=True)
+def _min3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
+    for y in range(h + 2):
+        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
+        for x in range(w):
+            t[x] = min(min(s0[x], s1[x]), s2[x])
+    for y in range(h):
+        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
+        for x in range(w):
+            out[x] = min(min(t0[x], t1[x]), t2[x])
+
+
+@njit(cache=True)
+def _max3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
+    for y in range(h + 2):
+        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
+        for x in range(w):
+            t[x] = max(max(s0[x], s1[x]), s2[x])
+    for y in range(h):
+        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
+        for x in range(w):
+            out[x] = max(max(t0[x], t1[x]), t2[x])
+
+
+@njit(cache=True)
+def _open3(m, work, tmp, h, w):  # pragma: no cover (compiled)
+    """3x3 opening of the (h, w) window of padded 0/1 mask ``m``, in place; what lies
+    beyond the window counts for neither erosion nor dilation."""
+    _frame(m, h, w, 1)
+    _min3(m, work, tmp, h, w)
+    _frame(work, h, w, 0)
+    _max3(work, m, tmp, h, w)

@@ -43,7 +43,13 @@ class VisionSettings:
     )
     smooth: int = setting(
         5, lo=0, hi=15,
-        doc="box filter aperture applied to a noisy frame before differencing (px, odd; 0 = off)",
+        doc="aperture of the filter applied to a noisy frame before differencing (px, odd; "
+        "0 = off)",
+    )
+    smooth_sigma: float = setting(
+        1.0, lo=0.0, hi=5.0,
+        doc="Gaussian sigma of that noisy-frame filter (px; 0 = a box filter): it smooths "
+        "the sensor noise with less blur of the outlines than a box",
     )
     edge_level: float = setting(
         0.3, lo=0.05, hi=0.95,

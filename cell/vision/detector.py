@@ -52,6 +52,7 @@ from cell.vision._footprint import warm_up as _warm_up
 from cell.vision._part_material import part_materials
 from cell.vision._part_material import warm_up as _warm_up_material
 from cell.vision._segment import FrameView, background, find_blobs, foreground
+from cell.vision._segment import warm_up as _warm_up_segment
 from cell.vision._split import split_blob
 from cell.vision.kind import footprint_yaw
 from cell.vision.settings import VisionSettings
@@ -225,6 +226,7 @@ def _warm_up_kernels(detector: PartDetector) -> None:
         return
     _warm_up()
     _warm_up_material()
+    _warm_up_segment()
     K = np.array([[300.0, 0, 159.5], [0, 300.0, 119.5], [0, 0, 1]])
     T = np.eye(4)
     T[:3, :3] = np.diag([1.0, -1.0, -1.0])

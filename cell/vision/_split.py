@@ -30,9 +30,10 @@ _ACCEPT = 9.0  # a piece (or a cut, on average) fitting worse than this fits no 
 # Two parts cover at least this table-plane area (mm^2): twice the smallest nominal
 # footprint (a square nut, 119 mm^2) less a margin; a smaller piece is not split again.
 _MIN_PAIR_MM2 = 200.0
-# Pieces of pieces (depth 2, chains of three or more) are cut along the outline only: on
-# the bench's scenes raster cores there never found a cut the outline cuts had missed.
-_CORE_DEPTH = 2
+# Pieces of pieces are cut along the outline only: on the bench's scenes (tune and held-out
+# sets) raster cores there found no cut the outline cuts had missed, and cost a third of
+# the split stage under raking light.
+_CORE_DEPTH = 1
 # The most cuts one blob's search (all depths together) evaluates: the search is an anytime
 # one, the best cut found so far wins. A blob of touching parts needs a handful; a blob
 # that is no set of parts would otherwise try every cut of every piece.

@@ -286,3 +286,13 @@ def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
         if p[1] == "unknown" and not (may_split and _may_split(p, view)):
             return None
     return pieces
+
+
+def warm_up() -> None:
+    """Run the distance-transform cut (cores, owners, pieces' contours) once on a made-up
+    mask of two touching discs, so its first real use loads nothing."""
+    roi = np.zeros((40, 70), np.uint8)
+    cv2.circle(roi, (20, 20), 14, 255, -1)
+    cv2.circle(roi, (47, 20), 14, 255, -1)
+    for seeds in _core_cuts(roi):
+        _pieces(roi, seeds, (0, 0))

@@ -54,7 +54,8 @@ from cell.vision._part_material import warm_up as _warm_up_material
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._segment import warm_up as _warm_up_segment
 from cell.vision._split import split_blob
-from cell.vision.kind import footprint_yaw
+from cell.vision._split import warm_up as _warm_up_split
+from cell.vision.kind import footprint, footprint_yaw
 from cell.vision.settings import VisionSettings
 
 __all__ = ["Detection", "PartDetector"]
@@ -238,4 +239,7 @@ def _warm_up_kernels(detector: PartDetector) -> None:
     noisy = cv2.add(img, np.random.default_rng(0).integers(0, 20, img.shape, dtype=np.uint8))
     for frame in (img, noisy):
         detector.detect(frame, camera)
+    _warm_up_split()
+    ring = np.stack([np.cos(np.arange(12) * np.pi / 6), np.sin(np.arange(12) * np.pi / 6)], 1)
+    footprint_yaw(footprint(0.01 * ring), "hex_nut", cut=2)  # the nuts' flat angle
     _WARM.add(1)

@@ -22,15 +22,13 @@ from numba import njit
 
 from cell.vision._segment_kernel import (
     border,
-    box_row,
     interpolate_x,
     is_shadow,
     lerp_rows,
     max_diff,
-    smooth_column,
-    smooth_row,
     upper_median,
 )
+from cell.vision._smooth_kernel import box_row, smooth_column, smooth_row
 
 __all__: list[str] = []  # private to cell.vision
 

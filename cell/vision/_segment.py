@@ -22,18 +22,17 @@ import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_windows
 from cell.vision._footprint import Geometry
+from cell.vision._median_kernel import median15
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
 from cell.vision._segment_kernel import (
-    box_difference,
     difference,
-    median15,
     median_mad,
     noise_mad,
     open2,
     probe_levels,
-    smoothing_taps,
     upscale_axis,
 )
+from cell.vision._smooth_kernel import box_difference, smoothing_taps
 from cell.vision.settings import VisionSettings
 
 __all__: list[str] = []  # private to cell.vision

@@ -1,22 +1,16 @@
 """Compiled steps of the segmentation (numba), each the exact integer arithmetic of the
 OpenCV call it replaces, so the detector's answers do not change:
 
-* ``cv2.copyMakeBorder`` (``BORDER_REFLECT_101``) + ``cv2.medianBlur`` 15x15 of the 1/8-scale
-  frame: a sliding-histogram median (Huang, Yang & Tang, *A fast two-dimensional median
-  filtering algorithm*, IEEE TASSP 1979) over column histograms, the median tracked
-  from row to row (the counts below and up to it updated by the entering and leaving
-  rows, then moved by fine and coarse histogram steps);
+* the belt's 15x15 median: :mod:`cell.vision._median_kernel`;
 * ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background by 8, edges
   repeated, window by window (:mod:`cell.vision._mosaic`): OpenCV's 11-bit fixed-point
   weights (:func:`upscale_axis`), rows combined as its SIMD path does;
-* ``cv2.blur`` (rounded to nearest), ``cv2.absdiff`` and the largest channel, at every other
-  pixel; ``cv2.threshold`` (uint8: above the floor of the threshold) and the 2x2
-  ``cv2.morphologyEx`` opening (anchor at the kernel's centre (1, 1); the border counts
-  neither for erosion nor dilation);
+* ``cv2.absdiff`` and the largest channel, at every other pixel (smoothed first in a noisy
+  frame: :mod:`cell.vision._smooth_kernel`); ``cv2.threshold`` (uint8: above the floor of
+  the threshold) and the 2x2 ``cv2.morphologyEx`` opening (anchor at the kernel's centre
+  (1, 1); the border counts neither for erosion nor dilation);
 * histogram medians and MADs, and the per-pixel shadow test of :mod:`cell.vision._segment`.
 
-One step has no OpenCV counterpart: the Gaussian that smooths a noisy frame (when
-``VisionSettings.smooth_sigma`` > 0), separable, in integers (weights in 1/256).
 Images are C-contiguous uint8 so that each kernel compiles once.
 """
 
@@ -90,120 +84,6 @@ def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled
 
 
 @njit(cache=True)
-def median15(small, bg):  # pragma: no cover (compiled)
-    """``bg`` (h, w, 3) uint8: the 15x15 median of each channel of ``small`` (h, w, 3)
-    uint8, borders mirrored (``BORDER_REFLECT_101``)."""
-    h, w, nc = small.shape
-    hp, wp = h + 14, w + 14
-    plane = np.empty((hp, wp), np.uint8)
-    fine = np.empty((256, wp), np.uint8)  # column histograms (value, column) ...
-    coarse = np.empty((16, wp), np.uint8)  # ... and by 16 values
-    hist = np.zeros(256, np.int64)
-    med = np.empty(w, np.int64)
-    below = np.empty(w, np.int64)  # count < median
-    upto = np.empty(w, np.int64)  # count <= median
-    cols = np.empty(wp, np.int64)
-    for j in range(wp):
-        cols[j] = border(j - 7, w)
-    for c in range(nc):
-        for i in range(hp):
-            row = small[border(i - 7, h)]
-            for j in range(wp):
-                plane[i, j] = row[cols[j], c]
-        _median_plane(plane, bg, c, fine, coarse, hist, med, below, upto)
-
-
-@njit(cache=True)
-def _window_count(hists, x, v):  # pragma: no cover (compiled)
-    s = 0
-    for j in range(x, x + 15):
-        s += hists[v, j]
-    return s
-
-
-@njit(cache=True)
-def _median_plane(q, bg, c, fine, coarse, hist, med, below, upto):  # pragma: no cover
-    hp, wp = q.shape
-    h, w = hp - 14, wp - 14
-    half = 112  # the median of 225 values has 112 below it
-    fine[:] = 0
-    coarse[:] = 0
-    for i in range(15):
-        for j in range(wp):
-            fine[q[i, j], j] += 1
-            coarse[q[i, j] >> 4, j] += 1
-    hist[:] = 0  # the first row: Huang's sliding histogram along it
-    for i in range(15):
-        for j in range(15):
-            hist[q[i, j]] += 1
-    m, lt = 0, 0
-    for x in range(w):
-        if x > 0:
-            for i in range(15):
-                a, b = q[i, x - 1], q[i, x + 14]
-                hist[a] -= 1
-                hist[b] += 1
-                lt += (b < m) - (a < m)
-        while lt > half:
-            m -= 1
-            lt -= hist[m]
-        while lt + hist[m] <= half:
-            lt += hist[m]
-            m += 1
-        med[x], below[x], upto[x] = m, lt, lt + hist[m]
-        bg[0, x, c] = m
-    for y in range(1, h):
-        out_row, in_row = q[y - 1], q[y + 14]
-        for d in range(15):
-            for x in range(w):
-                m, a, b = med[x], out_row[x + d], in_row[x + d]
-                below[x] += (b < m) - (a < m)
-                upto[x] += (b <= m) - (a <= m)
-        for j in range(wp):
-            a, b = out_row[j], in_row[j]
-            if a != b:
-                fine[a, j] -= 1
-                fine[b, j] += 1
-                coarse[a >> 4, j] -= 1
-                coarse[b >> 4, j] += 1
-        for x in range(w):
-            m, lt, le = med[x], below[x], upto[x]
-            if lt > half:  # the median fell: walk down, 16 values at a time where possible
-                v = m - 1
-                while True:
-                    if v & 15 == 15:
-                        n = _window_count(coarse, x, v >> 4)
-                        if lt - n > half:
-                            lt -= n
-                            v -= 16
-                            continue
-                    n = _window_count(fine, x, v)
-                    if lt - n <= half:
-                        m, le, lt = v, lt, lt - n
-                        break
-                    lt -= n
-                    v -= 1
-                med[x], below[x], upto[x] = m, lt, le
-            elif le <= half:  # it rose: walk up
-                v, lt = m + 1, le
-                while True:
-                    if v & 15 == 0:
-                        n = _window_count(coarse, x, v >> 4)
-                        if lt + n <= half:
-                            lt += n
-                            v += 16
-                            continue
-                    n = _window_count(fine, x, v)
-                    if lt + n > half:
-                        m, le = v, lt + n
-                        break
-                    lt += n
-                    v += 1
-                med[x], below[x], upto[x] = m, lt, le
-            bg[y, x, c] = m
-
-
-@njit(cache=True)
 def upper_median(hist, n):  # pragma: no cover (compiled)
     """The value of rank n // 2 (0-based) among the n counted in ``hist``."""
     s = 0
@@ -239,7 +119,7 @@ def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
     :func:`median_mad` reads) when ``sample``, else on all the others."""
     for y in range(dmax.shape[0]):
         if (y % 4 == 2) == sample:
-            _max_diff_half(img[2 * y], bgh[y], dmax[y])
+            max_diff_half(img[2 * y], bgh[y], dmax[y])
 
 
 @njit(cache=True)
@@ -253,7 +133,7 @@ def max_diff(src, bg, diff, out):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _max_diff_half(src, bg, out):  # pragma: no cover (compiled)
+def max_diff_half(src, bg, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of every other pixel of ``src``
     (3 W,) from ``bg`` (3 w,)."""
     for x in range(out.shape[0]):
@@ -261,112 +141,6 @@ def _max_diff_half(src, bg, out):  # pragma: no cover (compiled)
         d1 = abs(np.int64(src[6 * x + 1]) - np.int64(bg[3 * x + 1]))
         d2 = abs(np.int64(src[6 * x + 2]) - np.int64(bg[3 * x + 2]))
         out[x] = max(max(d0, d1), d2)
-
-
-def smoothing_taps(k: int, sigma: float) -> np.ndarray:
-    """(k,) uint16: the Gaussian weights (``sigma`` px, as ``cv2.getGaussianKernel``) of
-    a k-tap smoothing filter in 1/256 (rounded; the centre tap takes the rounding so
-    that they sum to 256); empty for sigma 0 (a box filter) or no filter (k = 0)."""
-    if sigma <= 0 or k == 0:
-        return np.empty(0, np.uint16)
-    x = np.arange(k) - (k - 1) / 2
-    taps = np.exp(-x * x / (2 * sigma * sigma))
-    weights = np.rint(256 * taps / taps.sum()).astype(np.int64)
-    weights[k // 2] += 256 - weights.sum()
-    return weights.astype(np.uint16)
-
-
-@njit(cache=True)
-def smooth_column(row, t, first, col):  # pragma: no cover (compiled)
-    """Add weight ``t`` times uint8 ``row`` to uint16 ``col`` (same length), or set
-    ``col`` to it when ``first`` (weights summing to 256: no overflow)."""
-    if first:
-        for e in range(col.shape[0]):
-            col[e] = t * row[e]
-    else:
-        for e in range(col.shape[0]):
-            col[e] += t * row[e]
-
-
-@njit(cache=True)
-def smooth_row(col, taps, acc, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: the horizontal pass of the separable filter ``taps`` (k,)
-    (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (its vertical pass, x 256: RGB,
-    k // 2 px beyond both ends), rounded to nearest; ``acc`` (n,) uint32 scratch."""
-    k, n = taps.shape[0], out.shape[0]
-    a = acc[:n]
-    first, t = col[:n], taps[0]
-    for e in range(n):
-        a[e] = t * first[e]
-    for j in range(1, k):
-        part, t = col[3 * j : 3 * j + n], taps[j]
-        for e in range(n):
-            a[e] += t * part[e]
-    for e in range(n):
-        out[e] = (a[e] + 32768) >> 16
-
-
-@njit(cache=True)
-def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
-    """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
-    ``img`` (H, 3 W) uint8 (RGB rows) smoothed k x k (borders mirrored) at every other
-    pixel: by ``cv2.blur`` (rounded to nearest) when ``taps`` is empty, else by the
-    separable filter ``taps`` (in 1/256, :func:`smooth_row`)."""
-    hh, n = img.shape
-    ww = n // 3
-    h = dmax.shape[0]
-    r = k // 2
-    col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
-    box = np.empty(3 * ww, np.uint8)
-    acc = np.empty(3 * ww, np.uint16)
-    if taps.shape[0]:
-        colf = np.empty(3 * (ww + 2 * r), np.uint16)
-        accf = np.empty(3 * ww, np.uint32)
-        inner = colf[3 * r : 3 * (r + ww)]
-        for y in range(h):
-            for i in range(k):
-                smooth_column(img[border(2 * y - r + i, hh)], taps[i], i == 0, inner)
-            for j in range(r):  # the mirrored columns
-                for c in range(3):
-                    colf[3 * j + c] = inner[3 * border(j - r, ww) + c]
-                    colf[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
-            smooth_row(colf, taps, accf, box)
-            _max_diff_half(box, bgh[y], dmax[y])
-        return
-    for y in range(h):
-        inner = col[3 * r : 3 * (r + ww)]
-        row = img[border(2 * y - r, hh)]
-        for e in range(3 * ww):
-            inner[e] = row[e]
-        for i in range(2 * y - r + 1, 2 * y + r + 1):
-            row = img[border(i, hh)]
-            for e in range(3 * ww):
-                inner[e] += row[e]
-        for j in range(r):  # the mirrored columns
-            for c in range(3):
-                col[3 * j + c] = inner[3 * border(j - r, ww) + c]
-                col[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
-        box_row(col, k, acc, box)
-        _max_diff_half(box, bgh[y], dmax[y])
-
-
-@njit(cache=True)
-def box_row(col, k, acc, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: the k-wide sums s (3 apart: RGB) of column sums ``col``
-    (n + 3 (k - 1),) uint16, over k^2 rounded to nearest: s / k^2 + 1/2 is at least
-    1 / 2 k^2 from an integer, far beyond float32 rounding; ``acc`` (n,) uint16 scratch."""
-    n = out.shape[0]
-    inv = np.float32(1.0 / (k * k))
-    first = col[:n]
-    for e in range(n):
-        acc[e] = first[e]
-    for j in range(1, k):
-        part = col[3 * j : 3 * j + n]
-        for e in range(n):
-            acc[e] += part[e]
-    half = np.float32(0.5)
-    for e in range(n):
-        out[e] = np.float32(acc[e]) * inv + half
 
 
 @njit(cache=True)

@@ -1,0 +1,105 @@
+"""The compiled segmentation steps against the OpenCV calls they replace, bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from cell.vision._median_kernel import median15
+from cell.vision._segment_kernel import difference, open2
+from cell.vision._smooth_kernel import box_difference, smoothing_taps
+
+
+@pytest.mark.parametrize("shape", [(60, 80), (31, 47), (16, 16), (9, 23)])
+def test_belt_median_is_opencv_median_of_the_mirrored_image(shape):
+    rng = np.random.default_rng(sum(shape))
+    small = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    small[: shape[0] // 2] //= 4  # a step, as a belt edge, and many ties
+    got = np.empty_like(small)
+    median15(small, got)
+    padded = cv2.copyMakeBorder(small, 7, 7, 7, 7, cv2.BORDER_REFLECT_101)
+    expect = cv2.medianBlur(padded, 15)[7:-7, 7:-7]
+    np.testing.assert_array_equal(got, expect)
+
+
+def _half_difference(img: np.ndarray, bg_small: np.ndarray, blurred: np.ndarray) -> np.ndarray:
+    """The largest channel difference at every other pixel, as composed from OpenCV."""
+    h, w = img.shape[0] // 2, img.shape[1] // 2
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR)
+    half = cv2.resize(blurred, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)
+    return cv2.absdiff(half, bg).max(axis=2)
+
+
+def _frame(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    img = np.full((96, 128, 3), (60, 80, 110), np.uint8)
+    cv2.circle(img, (50, 40), 18, (200, 60, 50), -1)
+    img = cv2.add(img, rng.integers(0, 25, img.shape, dtype=np.uint8))
+    return img, np.full((12, 16, 3), (62, 90, 118), np.uint8)
+
+
+def test_difference_is_opencv_absdiff_largest_channel():
+    img, bg_small = _frame(1)
+    h, w = 48, 64
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(h, 3 * w)
+    got = np.empty((h, w), np.uint8)
+    difference(img.reshape(96, 3 * 128), bg, True, got)  # the rows the noise estimate reads
+    difference(img.reshape(96, 3 * 128), bg, False, got)  # and the others
+    np.testing.assert_array_equal(got, _half_difference(img, bg_small, img))
+
+
+@pytest.mark.parametrize("k", [3, 5])
+def test_box_smoothed_difference_is_opencv_blur(k):
+    img, bg_small = _frame(2)
+    h, w = 48, 64
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).reshape(h, 3 * w)
+    got = np.empty((h, w), np.uint8)
+    box_difference(img.reshape(96, 3 * 128), bg, k, smoothing_taps(k, 0.0), got)
+    np.testing.assert_array_equal(got, _half_difference(img, bg_small, cv2.blur(img, (k, k))))
+
+
+def test_gaussian_taps_are_opencvs_kernel_in_256ths():
+    for k, sigma in ((5, 1.0), (5, 1.5), (3, 0.8), (7, 2.0)):
+        taps = smoothing_taps(k, sigma).astype(int)
+        assert taps.sum() == 256 and list(taps) == list(taps[::-1])
+        ref = cv2.getGaussianKernel(k, sigma).ravel() * 256
+        assert np.abs(taps - ref).max() <= 1.5  # rounded; the centre tap takes the remainder
+    assert smoothing_taps(5, 0.0).size == 0
+
+
+def test_gaussian_smoothing_reduces_noise_more_gently_than_the_box_at_an_edge():
+    """On a noisy step edge the Gaussian leaves less noise than none and a steeper edge
+    than the box filter of the same aperture."""
+    rng = np.random.default_rng(5)
+    img = np.zeros((96, 128, 3), np.uint8)
+    img[:, 64:] = 120
+    img = cv2.add(img, rng.integers(0, 30, img.shape, dtype=np.uint8))
+    bg = np.zeros((48, 3 * 64), np.uint8)
+    flat = img.reshape(96, 3 * 128)
+    out = {}
+    for name, taps in (("box", smoothing_taps(5, 0.0)), ("gauss", smoothing_taps(5, 1.0))):
+        d = np.empty((48, 64), np.uint8)
+        box_difference(flat, bg, 5, taps, d)
+        out[name] = d.astype(float)
+    raw = np.empty((48, 64), np.uint8)
+    difference(flat, bg, True, raw)
+    difference(flat, bg, False, raw)
+    flat_noise = {n: d[:, 5:25].std() for n, d in out.items()}
+    assert flat_noise["gauss"] < raw[:, 5:25].astype(float).std()
+    step = {n: d[:, 32:34].mean() - d[:, 30:32].mean() for n, d in out.items()}
+    assert step["gauss"] > step["box"]
+
+
+def test_threshold_and_opening_are_opencvs():
+    rng = np.random.default_rng(7)
+    d = rng.integers(0, 40, (48, 64), dtype=np.uint8)
+    d[10:20, 10:30] = 90
+    for t in (12.0, 20.7, 35.0):
+        got = np.empty_like(d)
+        open2(d, math.floor(t), got)
+        mask = cv2.threshold(d, t, 255, cv2.THRESH_BINARY)[1]
+        expect = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+        np.testing.assert_array_equal(got, expect)

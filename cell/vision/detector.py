@@ -37,7 +37,9 @@ Pipeline (each step a textbook technique, each in its own module):
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -225,6 +227,10 @@ def _warm_up_kernels(detector: PartDetector) -> None:
     discs, which run the segmentation, kind, split and material kernels."""
     if _WARM:
         return
+    cache = Path(__file__).parent / "__pycache__"
+    if not any(cache.glob("*.nbi")):  # numba has not compiled them yet: say why we wait
+        print("cell.vision: compiling the detector's kernels (once after install, about a "
+              "minute)...", file=sys.stderr, flush=True)
     _warm_up()
     _warm_up_material()
     _warm_up_segment()

@@ -253,3 +253,19 @@ def test_every_8th_pixel_is_the_strided_slice_for_any_size():
         small = _every_8th(img)
         assert small.flags.c_contiguous
         assert np.array_equal(small, img[4::8, 4::8])
+
+
+def test_same_frame_same_detections_from_any_detector(spread):
+    """Detection is a function of the frame: two detectors, and one detector after other
+    frames, give identical results (no state carried between frames)."""
+    spread.set_lighting("dim")
+    dim = spread.render(depth=False, seg=False)
+    spread.set_lighting("raking")
+    frame = spread.render(depth=False, seg=False)
+    spread.set_lighting("front")
+    first = PartDetector()
+    a = [d.to_dict() for d in first.detect(frame.rgb, frame.camera)]
+    first.detect(dim.rgb, dim.camera)  # another frame in between
+    b = [d.to_dict() for d in first.detect(frame.rgb, frame.camera)]
+    c = [d.to_dict() for d in PartDetector().detect(frame.rgb, frame.camera)]
+    assert a and a == b == c

@@ -211,11 +211,6 @@ def fit_of(xy: np.ndarray, row: np.ndarray, splits: np.ndarray) -> Fit:
     return Fit(functools.partial(footprint_of, row, outline, holes))
 
 
-def fit_kind(blob: Blob, geo: Geometry, min_confidence: float) -> tuple[str, float, float, Fit]:
-    """:func:`fit_kinds` of one blob."""
-    return fit_kinds([blob], geo, min_confidence)[0]
-
-
 def edge_heights(kind: str) -> tuple[float, float]:
     """Heights above the belt (m) of a kind's silhouette edges: facing the nadir, away."""
     h = KINDS[kind].height

@@ -50,14 +50,6 @@ def _score(row, k, nominal, sigmas, round_, round_facets, faceted, facet_w):  # 
 
 
 @njit(cache=True)
-def classify_rows(scores, max_fit, best, conf, fit):  # pragma: no cover (compiled)
-    """Best kind (-1: none fits), confidence (its share of exp(-score / 2)) and fit
-    (its score) of every row of ``scores`` (n, kinds)."""
-    for i in range(scores.shape[0]):
-        best[i], conf[i], fit[i] = _classify(scores[i], max_fit)
-
-
-@njit(cache=True)
 def _classify(row, max_fit):  # pragma: no cover (compiled)
     b = 0
     for k in range(1, row.shape[0]):

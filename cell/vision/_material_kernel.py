@@ -25,6 +25,8 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from cell.vision._segment_kernel import border
+
 __all__: list[str] = []  # private to cell.vision
 
 SUPPORT = 2  # px: how far the filters (3x3 mean, then 3x3 Sobel) read around a pixel
@@ -66,16 +68,6 @@ def _fma32(typingctx, a, b, c):  # pragma: no cover (compiled)
     return sig, codegen
 
 
-@njit(cache=True, inline="always")
-def _reflect(p, n):  # pragma: no cover (compiled)
-    """``cv2.borderInterpolate(p, n, cv2.BORDER_REFLECT_101)``."""
-    if n == 1:
-        return 0
-    while p < 0 or p >= n:
-        p = -p if p < 0 else 2 * n - 2 - p
-    return p
-
-
 @njit(cache=True)
 def _padded(img, y0, x0, ph, pw):  # pragma: no cover (compiled)
     """The patch ``img[y0 : y0 + ph, x0 : x0 + pw]`` with ``SUPPORT`` px mirrored around
@@ -86,13 +78,13 @@ def _padded(img, y0, x0, ph, pw):  # pragma: no cover (compiled)
     flat, stride = img.reshape(-1), 3 * img.shape[1]
     out = np.empty((ph + 2 * p) * ww * 3, np.uint8)
     for a in range(ph + 2 * p):
-        src = flat[(y0 + _reflect(a - p, ph)) * stride + 3 * x0 :]
+        src = flat[(y0 + border(a - p, ph)) * stride + 3 * x0 :]
         dst = out[3 * a * ww :]
         mid = dst[3 * p :]
         for k in range(3 * pw):
             mid[k] = src[k]
         for b in range(p):
-            left, right = 3 * _reflect(b - p, pw), 3 * _reflect(pw + b, pw)
+            left, right = 3 * border(b - p, pw), 3 * border(pw + b, pw)
             for c in range(3):
                 dst[3 * b + c] = src[left + c]
                 dst[3 * (p + pw + b) + c] = src[right + c]

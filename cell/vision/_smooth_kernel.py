@@ -79,10 +79,7 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
         for y in range(h):
             for i in range(k):
                 smooth_column(img[border(2 * y - r + i, hh)], taps[i], i == 0, inner)
-            for j in range(r):  # the mirrored columns
-                for c in range(3):
-                    colf[3 * j + c] = inner[3 * border(j - r, ww) + c]
-                    colf[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
+            _mirror_columns(colf, r, ww)
             smooth_row(colf, taps, accf, box)
             max_diff_half(box, bgh[y], dmax[y])
         return
@@ -95,10 +92,7 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
             row = img[border(i, hh)]
             for e in range(3 * ww):
                 inner[e] += row[e]
-        for j in range(r):  # the mirrored columns
-            for c in range(3):
-                col[3 * j + c] = inner[3 * border(j - r, ww) + c]
-                col[3 * (r + ww + j) + c] = inner[3 * border(ww + j, ww) + c]
+        _mirror_columns(col, r, ww)
         box_row(col, k, acc, box)
         max_diff_half(box, bgh[y], dmax[y])
 
@@ -120,3 +114,13 @@ def box_row(col, k, acc, out):  # pragma: no cover (compiled)
     half = np.float32(0.5)
     for e in range(n):
         out[e] = np.float32(acc[e]) * inv + half
+
+
+@njit(cache=True)
+def _mirror_columns(col, r, ww):  # pragma: no cover (compiled)
+    """Fill the ``r`` columns either side of ``col``'s inner ``ww`` RGB columns with their
+    mirror images (``BORDER_REFLECT_101``)."""
+    for j in range(r):
+        for c in range(3):
+            col[3 * j + c] = col[3 * (r + border(j - r, ww)) + c]
+            col[3 * (r + ww + j) + c] = col[3 * (r + border(ww + j, ww)) + c]

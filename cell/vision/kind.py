@@ -26,7 +26,7 @@ from numba import njit
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
-from cell.vision._kindfit import classify_rows, score_rows
+from cell.vision._kindfit import score_rows
 from cell.vision._polygons import describe_polygons
 
 __all__ = [
@@ -38,7 +38,6 @@ __all__ = [
     "score_kind",
     "score_kinds",
     "score_table",
-    "classify_table",
 ]
 
 _SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
@@ -208,15 +207,6 @@ def score_table(length: np.ndarray, width: np.ndarray, hole_fraction: np.ndarray
     out = np.empty((len(length), len(KIND_NAMES)))
     score_rows(table, *SCORING, out)
     return out
-
-
-def classify_table(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`classify_kind` of every row of an (n, kinds) score array (kinds in the order
-    of ``KIND_NAMES``): (best kind's index, or -1 for unknown; confidence; fit)."""
-    n = len(scores)
-    best, conf, fit = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    classify_rows(np.ascontiguousarray(scores, dtype=np.float64), _MAX_FIT, best, conf, fit)
-    return best, conf, fit
 
 
 def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:

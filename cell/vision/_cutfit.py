@@ -80,19 +80,11 @@ def _piece(contour, normals, rays, away, hole_starts, runs, cut, cut_normals, cu
 
 
 @njit(cache=True)
-def cut_pieces(contour, normals, rays, away, hole_starts, hole_first, runs0, runs1, cut,
-               cut_normals, cut_rays, cut_away, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
-               bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w,
-               max_fit, hopeless, gap, min_conf):  # pragma: no cover (compiled)
-    """The two pieces of a cut of a prepared blob (``contour``/``normals`` its outline,
-    ``rays``/``away`` outline then holes, hole h's points at ``hole_starts[h]`` up to
-    ``hole_starts[h + 1]`` in those, its first pixel ``hole_first[h]``): piece 0 is the
-    outline's points ``runs0`` then the ``cut`` (with its normals, rays, top-edge flags),
-    piece 1 the points ``runs1`` then the cut reversed. Returns None for a speck, else
-    per piece (arrays, bounding box, kind or -1, confidence, fit, footprint points,
-    descriptors) and each piece's holes (indices)."""
-    if (polygon_area(contour[runs0]) < 30 or polygon_area(contour[runs1]) < 30):
-        return None
+def _two_pieces(contour, normals, rays, away, hole_starts, hole_first, runs0, runs1, cut,
+                cut_normals, cut_rays, cut_away):  # pragma: no cover (compiled)
+    """The arrays (contour, normals, rays, away, splits, box) of a cut's two pieces (piece
+    0 the outline's points ``runs0`` then the ``cut``, piece 1 the points ``runs1`` then
+    the cut reversed) and each piece's holes (indices)."""
     back = cut[::-1].copy()
     back_normals = -cut_normals[::-1]
     back_rays = cut_rays[::-1].copy()
@@ -104,24 +96,124 @@ def cut_pieces(contour, normals, rays, away, hole_starts, hole_first, runs0, run
         in0[h] = _inside(hole_first[h, 0], hole_first[h, 1], contour, runs0, cut)
         in1[h] = _inside(hole_first[h, 0], hole_first[h, 1], contour, runs1, back)
     holes0, holes1 = np.nonzero(in0)[0], np.nonzero(in1)[0]
-    out = []
-    for which in range(2):
-        if which == 0:
-            arrs = _piece(contour, normals, rays, away, hole_starts, runs0, cut, cut_normals,
-                          cut_rays, cut_away, holes0)
-        else:
-            arrs = _piece(contour, normals, rays, away, hole_starts, runs1, back, back_normals,
-                          back_rays, back_away, holes1)
-        c, nr, r, aw, splits, box = arrs
-        local = np.empty(splits.shape[0] + 1, np.int64)
-        local[0] = 0
-        local[1:] = splits
-        n_pts = splits[-1]
-        xy = np.empty((n_pts, 2))
-        row = np.empty(10)
-        kind, conf, fit = fit_one(r, aw, np.arange(n_pts), 0, n_pts, local, ox, oy, drop, mid,
-                                  edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas, round_,
-                                  round_facets, faceted, facet_w, max_fit, hopeless, gap,
-                                  min_conf, xy, row)
-        out.append((c, nr, r, aw, splits, box, kind, conf, fit, xy, row))
-    return out[0], out[1], holes0, holes1
+    arrs0 = _piece(contour, normals, rays, away, hole_starts, runs0, cut, cut_normals, cut_rays,
+                   cut_away, holes0)
+    arrs1 = _piece(contour, normals, rays, away, hole_starts, runs1, back, back_normals,
+                   back_rays, back_away, holes1)
+    return arrs0, arrs1, holes0, holes1
+
+
+@njit(cache=True)
+def _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
+               round_, round_facets, faceted, facet_w, max_fit, hopeless, gap,
+               min_conf):  # pragma: no cover (compiled)
+    """(kind or -1, confidence, fit, footprint points, descriptors) of one piece."""
+    r, aw, splits = arrs[2], arrs[3], arrs[4]
+    local = np.empty(splits.shape[0] + 1, np.int64)
+    local[0] = 0
+    local[1:] = splits
+    n_pts = splits[-1]
+    xy = np.empty((n_pts, 2))
+    row = np.empty(10)
+    kind, conf, fit = fit_one(r, aw, np.arange(n_pts), 0, n_pts, local, ox, oy, drop, mid,
+                              edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas, round_,
+                              round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf,
+                              xy, row)
+    return kind, conf, fit, xy, row
+
+
+@njit(cache=True)
+def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, first, second, starts,
+                  cut, cut_normals, cut_rays, cut_away, begin, count, may_split, area_scale,
+                  min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal,
+                  sigmas, round_, round_facets, faceted, facet_w, max_fit, hopeless, gap,
+                  min_conf):  # pragma: no cover (compiled)
+    """Build and fit the pieces of cuts ``begin``, ``begin + 1``, ... of a prepared blob
+    (``contour``/``normals`` its outline, ``rays``/``away`` outline then holes, hole h's
+    points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its first pixel
+    ``hole_first[h]``). Cut c joins outline points ``first[c]`` < ``second[c]``: piece 0
+    is the outline from the first to the second then the cut's points
+    ``cut[starts[c]:starts[c + 1]]`` (with their normals, rays, top-edge flags), piece 1
+    the outline from the second round to the first then the cut reversed; each takes the
+    holes whose first point lies inside it (a crossing-number test, as
+    ``cv2.pointPolygonTest``). A cut with a speck (under 30 px^2, as
+    ``cv2.contourArea``) fails.
+
+    Stops after ``count`` cuts, or after a cut the search will not go past: both pieces
+    fit a kind with a mean fit below ``good``, or (``may_split``) some piece fits none
+    and each such piece is over ``min_pair`` (outline area times ``area_scale``) and may
+    be split. Returns per piece (cut c's are rows 2c and 2c + 1) ``meta`` (contour
+    start/end in ``c``/``nr``, point start/end in ``r``/``aw``/``xy``, hole start/end in
+    ``held``, kind or -1, bounding box as ``cv2.boundingRect``; a failed cut's pieces have
+    kind -2), ``scores`` (confidence, fit, descriptors), ``splits`` (cumulative polygon
+    sizes), then the concatenated arrays ``c``, ``nr``, ``r``, ``aw``, ``xy`` and the
+    held holes' indices ``held``."""
+    n = contour.shape[0]
+    n_holes = hole_first.shape[0]
+    m = min(first.shape[0], begin + count)
+    size_c = size_r = 0
+    for c in range(begin, m):
+        k = starts[c + 1] - starts[c]
+        size_c += n + 2 + 2 * k
+        size_r += n + 2 + 2 * k + 2 * (rays.shape[0] - n)
+    pieces = 2 * (m - begin)
+    meta = np.zeros((pieces, 11), np.int64)
+    scores = np.zeros((pieces, 12))
+    splits = np.zeros((pieces, n_holes + 1), np.int64)
+    c_all = np.empty((size_c, 2))
+    nr_all = np.empty((size_c, 2))
+    r_all = np.empty((size_r, 2))
+    aw_all = np.empty(size_r, np.bool_)
+    xy_all = np.empty((size_r, 2))
+    held = np.empty(pieces * n_holes, np.int64)
+    kc = kr = kh = 0
+    done = 0
+    for c in range(begin, m):
+        fi, fj = first[c], second[c]
+        p0 = 2 * done
+        done += 1
+        s, e = starts[c], starts[c + 1]
+        runs0, runs1 = np.arange(fi, fj + 1), np.arange(fj, n + fi + 1) % n
+        if polygon_area(contour[runs0]) < 30 or polygon_area(contour[runs1]) < 30:
+            meta[p0, 4] = meta[p0 + 1, 4] = -2
+            for w in range(2):
+                meta[p0 + w, 0] = meta[p0 + w, 1] = kc
+                meta[p0 + w, 2] = meta[p0 + w, 3] = kr
+                meta[p0 + w, 5] = meta[p0 + w, 6] = kh
+            continue
+        res = _two_pieces(contour, normals, rays, away, hole_starts, hole_first, runs0, runs1,
+                          cut[s:e], cut_normals[s:e], cut_rays[s:e], cut_away[s:e])
+        judged = True  # no piece fits no kind and cannot be split
+        known_fit = 0.0
+        for w in range(2):
+            arrs, holes = (res[0], res[2]) if w == 0 else (res[1], res[3])
+            pc, pn, pr, paw, psplits, box = arrs
+            kind, conf, fit, xy, row = _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi,
+                                                  bolt, bolt_height, nominal, sigmas, round_,
+                                                  round_facets, faceted, facet_w, max_fit,
+                                                  hopeless, gap, min_conf)
+            p = p0 + w
+            nc, nrays = pc.shape[0], pr.shape[0]
+            c_all[kc : kc + nc] = pc
+            nr_all[kc : kc + nc] = pn
+            r_all[kr : kr + nrays] = pr
+            aw_all[kr : kr + nrays] = paw
+            xy_all[kr : kr + nrays] = xy
+            held[kh : kh + holes.shape[0]] = holes
+            splits[p, : psplits.shape[0]] = psplits
+            meta[p, 0], meta[p, 1], meta[p, 2], meta[p, 3] = kc, kc + nc, kr, kr + nrays
+            meta[p, 5], meta[p, 6] = kh, kh + holes.shape[0]
+            meta[p, 4] = kind
+            meta[p, 7:] = box
+            scores[p, 0], scores[p, 1] = conf, fit
+            scores[p, 2:] = row
+            kc, kr, kh = kc + nc, kr + nrays, kh + holes.shape[0]
+            if kind >= 0:
+                known_fit += fit
+            elif not (may_split and polygon_area(pc) * area_scale > min_pair):
+                judged = False  # the cut fails: the search goes on
+        if judged and (meta[p0, 4] < 0 or meta[p0 + 1, 4] < 0 or known_fit / 2 < good):
+            break
+    pieces = 2 * done
+    return (meta[:pieces], scores[:pieces], splits[:pieces], c_all[:kc], nr_all[:kc],
+            r_all[:kr], aw_all[:kr], xy_all[:kr], held[:kh])

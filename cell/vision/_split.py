@@ -13,13 +13,15 @@ are.
 from __future__ import annotations
 
 import math
+import weakref
 
 import cv2
 import numpy as np
 
 from cell.vision._blob import Blob, blobs_of_mask, px_centroid
-from cell.vision._cutfit import cut_pieces
-from cell.vision._footprint import Fit, fit_arguments, fit_kinds, fit_of
+from cell.vision._cutfit import evaluate_cuts
+from cell.vision._cutsearch import cut_candidates, int_outline
+from cell.vision._footprint import Fit, Geometry, fit_arguments, fit_kinds, fit_of
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -127,7 +129,7 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
     guesses first: straight cuts between pairs of deep convexity defects, made on the
     outline itself (:func:`_polygon_cuts`); then cores of the distance transform, on the
     rasterised blob (:func:`_core_cuts`)."""
-    for pieces, cut in _polygon_cuts(blob, view):
+    for pieces, cut in _polygon_cuts(blob, view, may_split, budget):
         if budget[0] <= 0:
             return
         budget[0] -= 1
@@ -151,13 +153,15 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
         yield None if pieces is None else _evaluate(pieces, view, may_split)
 
 
-def _polygon_cuts(blob: Blob, view: FrameView):
-    """Pieces (two blobs) for straight cuts between pairs of deep (>= 2.5 px) convexity
-    defects of the outline (``cv2.convexityDefects``): the six deepest defects, pairs
-    with the shortest cut relative to their depths first, at most six. A piece is the
-    outline between the two defect points, closed by the cut, with the holes inside it;
-    its rays come from the blob's (no new contour tracing)."""
-    outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32)
+def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int]):
+    """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
+    for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
+    (``cv2.convexityDefects``; the cuts: :func:`cell.vision._cutsearch.cut_candidates`).
+    A piece is the outline between the two defect points, closed by the cut, with the
+    holes inside it; its rays come from the blob's (no new contour tracing). The cuts
+    are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each
+    up to the next cut the search in :func:`_split` may stop at or recurse from."""
+    outline = int_outline(blob.contour, blob.normals)
     if len(outline) < 5:
         return
     hull = cv2.convexHull(outline, returnPoints=False)
@@ -169,58 +173,73 @@ def _polygon_cuts(blob: Blob, view: FrameView):
         return
     if defects is None:
         return
-    deep = sorted(((fi, di) for _, _, fi, di in defects[:, 0].tolist() if di >= 2.5 * 256),
-                  key=lambda r: -r[1])[:6]  # the six deepest (stable: ties keep outline order)
-    pts = outline.tolist()
-    pairs = []
-    for i in range(len(deep)):
-        for j in range(i + 1, len(deep)):
-            (fi, di), (fj, dj) = deep[i], deep[j]
-            pairs.append((math.dist(pts[fi], pts[fj]) / ((di + dj) / 256.0), min(fi, fj), max(fi, fj)))
-    pairs.sort()
     view.geo.prepare([blob])
-    n = len(outline)
-    c, nr = blob.contour, blob.normals
-    # which side of the direction of travel the outward normals lie on (+1: left turn)
-    side = 1.0 if (c[1, 0] - c[0, 0]) * nr[0, 1] - (c[1, 1] - c[0, 1]) * nr[0, 0] > 0 else -1.0
-    for _, fi, fj in pairs[:6]:
-        if fj - fi < 8 or n - (fj - fi) < 8:
-            continue
-        mid = ((pts[fi][0] + pts[fj][0]) / 2.0, (pts[fi][1] + pts[fj][1]) / 2.0)
-        if cv2.pointPolygonTest(outline, mid, False) < 0:
-            continue  # the cut runs outside the blob
-        # the cut from point fj back to fi, sampled every pixel as a traced boundary is
-        # (so its chords weigh in the yaw as much as a traced edge of its length)
-        (ax, ay), (bx, by) = c[fj].tolist(), c[fi].tolist()
-        length = max(math.hypot(bx - ax, by - ay), 1e-9)
-        steps = max(int(length), 1)
-        t = np.arange(1.0, steps) / steps
-        cut = np.stack((ax + t * (bx - ax), ay + t * (by - ay)), axis=1)
-        out = np.empty_like(cut)
-        out[:, 0] = -side * (by - ay) / length
-        out[:, 1] = side * (bx - ax) / length
-        rays, away = view.geo.plane_rays(cut, out)
-        yield _cut_pieces(blob, view, fi, fj, n, cut, out, rays, away), len(cut)
+    k = _constants(view)
+    first, second, starts, cut, normals, rays, away = cut_candidates(
+        blob.contour, blob.normals, outline, defects.reshape(-1, 4), *k.camera)
+    if not k.pinhole:
+        rays, away = view.geo.plane_rays(cut, normals)
+    holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
+    lengths = np.diff(starts).tolist()
+    c = 0
+    while c < len(lengths) and budget[0] > 0:
+        res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
+                            first, second, starts, cut, normals, rays, away, c, budget[0],
+                            may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
+        meta = res[0].tolist()
+        held = res[8].tolist()
+        for p in range(0, len(meta), 2):
+            yield _batch_pieces(blob, res, meta, held, p), lengths[c]
+            c += 1
 
 
-def _cut_pieces(blob: Blob, view: FrameView, fi: int, fj: int, n: int, cut: np.ndarray,
-                normals: np.ndarray, rays: np.ndarray, away: np.ndarray) -> list[Piece] | None:
-    """The two pieces, with their best kinds, of the cut from outline point ``fj`` back
-    to ``fi`` (points ``cut``, their outward ``normals``, rays and top-edge flags); None
-    when a piece is a speck (:func:`cell.vision._cutfit.cut_pieces`)."""
-    first = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
-    res = cut_pieces(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, first,
-                     np.arange(fi, fj + 1), np.arange(fj, n + fi + 1) % n, cut, normals, rays,
-                     away, *fit_arguments(view.geo, view.settings.min_kind_confidence))
-    if res is None:
+def _batch_pieces(blob: Blob, res: tuple, meta: list, held: list, p: int) -> list[Piece] | None:
+    """The two pieces, with their best kinds, of the cut whose pieces are rows ``p`` and
+    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta`` and
+    ``held`` its first and last arrays as lists); None when a piece is a speck."""
+    if meta[p][4] == -2:
         return None
+    _, scores, splits, c, nr, r, aw, xy, _ = res
     out = []
-    for (c, nr, r, aw, splits, box, kind, conf, fit, xy, row), holes in zip(res[:2], res[2:],
-                                                                             strict=True):
-        piece = Blob(c, nr, [blob.holes[h] for h in holes.tolist()], tuple(box.tolist()), False)
-        piece.rays, piece.away, piece.splits = r, aw, splits
-        out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", conf, fit_of(xy, row, splits), fit))
+    for q in (p, p + 1):
+        c0, c1, r0, r1, kind, h0, h1, bx, by, bw, bh = meta[q]
+        piece = Blob(c[c0:c1], nr[c0:c1], [blob.holes[h] for h in held[h0:h1]],
+                     (bx, by, bw, bh), False)
+        spl = splits[q, : 1 + h1 - h0]
+        piece.rays, piece.away, piece.splits = r[r0:r1], aw[r0:r1], spl
+        conf, fit = scores[q, :2].tolist()
+        out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", conf,
+                    fit_of(xy[r0:r1], scores[q, 2:], spl), fit))
     return out
+
+
+class _Constants:
+    """What the compiled cut search needs of a frame's camera and settings: the pinhole
+    camera's entries (as :func:`cell.vision._polygons.plane_rays` takes them), the
+    compiled fit's constant arguments (:func:`~cell.vision._footprint.fit_arguments`),
+    the scale from pixel to table-plane area (mm^2 per px^2, as ``Geometry.area_mm2``)."""
+
+    def __init__(self, geo: Geometry, min_confidence: float) -> None:
+        K, nadir = geo.camera.K, geo.nadir
+        self.pinhole = not bool(np.any(geo.camera.dist))
+        self.camera = (self.pinhole, float(K[0, 0]), float(K[1, 1]), float(K[0, 2]),
+                       float(K[1, 2]), float(K[0, 1]), np.ascontiguousarray(geo.R, dtype=np.float64),
+                       0.0 if nadir is None else float(nadir[0]),
+                       0.0 if nadir is None else float(nadir[1]), nadir is not None)
+        self.fit = fit_arguments(geo, min_confidence)
+        self.area_scale = (geo.m_per_px * 1e3) ** 2
+
+
+_CONSTANTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _constants(view: FrameView) -> _Constants:
+    """The view's :class:`_Constants`, made once per geometry and confidence limit."""
+    per_geo = _CONSTANTS.setdefault(view.geo, {})
+    conf = view.settings.min_kind_confidence
+    if conf not in per_geo:
+        per_geo[conf] = _Constants(view.geo, conf)
+    return per_geo[conf]
 
 
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:

@@ -123,33 +123,71 @@ def _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nom
 
 
 @njit(cache=True)
-def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, first, second, starts,
-                  cut, cut_normals, cut_rays, cut_away, begin, count, may_split, area_scale,
-                  min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal,
-                  sigmas, round_, round_facets, faceted, facet_w, max_fit, hopeless, gap,
-                  min_conf):  # pragma: no cover (compiled)
+def _fails(kind, contour, holes, hole_pts, hole_off, may_split, area_scale,
+           min_pair):  # pragma: no cover (compiled)
+    """Whether a piece fits no kind and may not be split: ``may_split`` is False or its
+    area (outline less ``holes``, shoelace, times ``area_scale``) is at most
+    ``min_pair``, as ``Geometry.area_mm2`` computes it."""
+    if kind >= 0:
+        return False
+    if not may_split:
+        return True
+    a = polygon_area(contour)
+    for h in holes:
+        a -= polygon_area(hole_pts[hole_off[h] : hole_off[h + 1]])
+    return not a * area_scale > min_pair
+
+
+@njit(cache=True)
+def _store(p, arrs, holes, kind, conf, fit, xy, row, meta, scores, splits, c_all, nr_all, r_all,
+           aw_all, xy_all, held, kc, kr, kh):  # pragma: no cover (compiled)
+    """Write piece ``p`` into the output arrays at offsets (kc, kr, kh); the new offsets."""
+    pc, pn, pr, paw, psplits, box = arrs
+    nc, nrays, nh = pc.shape[0], pr.shape[0], holes.shape[0]
+    c_all[kc : kc + nc] = pc
+    nr_all[kc : kc + nc] = pn
+    r_all[kr : kr + nrays] = pr
+    aw_all[kr : kr + nrays] = paw
+    xy_all[kr : kr + nrays] = xy
+    held[kh : kh + nh] = holes
+    splits[p, : psplits.shape[0]] = psplits
+    meta[p, 0], meta[p, 1], meta[p, 2], meta[p, 3] = kc, kc + nc, kr, kr + nrays
+    meta[p, 4], meta[p, 5], meta[p, 6] = kind, kh, kh + nh
+    meta[p, 7:] = box
+    scores[p, 0], scores[p, 1] = conf, fit
+    scores[p, 2:] = row
+    return kc + nc, kr + nrays, kh + nh
+
+
+@njit(cache=True)
+def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, first, second,
+                  starts, cut, cut_normals, cut_rays, cut_away, begin, count, may_split,
+                  area_scale, min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+                  bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
+                  hopeless, gap, min_conf):  # pragma: no cover (compiled)
     """Build and fit the pieces of cuts ``begin``, ``begin + 1``, ... of a prepared blob
     (``contour``/``normals`` its outline, ``rays``/``away`` outline then holes, hole h's
     points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its first pixel
-    ``hole_first[h]``). Cut c joins outline points ``first[c]`` < ``second[c]``: piece 0
-    is the outline from the first to the second then the cut's points
-    ``cut[starts[c]:starts[c + 1]]`` (with their normals, rays, top-edge flags), piece 1
-    the outline from the second round to the first then the cut reversed; each takes the
-    holes whose first point lies inside it (a crossing-number test, as
-    ``cv2.pointPolygonTest``). A cut with a speck (under 30 px^2, as
-    ``cv2.contourArea``) fails.
+    ``hole_first[h]``, its outline ``hole_pts`` from ``hole_starts[h] - n``). Cut c
+    joins outline points ``first[c]`` < ``second[c]``: piece 0 is the outline from the
+    first to the second then the cut's points ``cut[starts[c]:starts[c + 1]]`` (with
+    their normals, rays, top-edge flags), piece 1 the outline from the second round to
+    the first then the cut reversed; each takes the holes whose first point lies inside
+    it (a crossing-number test, as ``cv2.pointPolygonTest``). A cut fails when a piece
+    is a speck (under 30 px^2, as ``cv2.contourArea``) or fits no kind and may not be
+    split (:func:`_fails`; the second piece is then not fitted).
 
     Stops after ``count`` cuts, or after a cut the search will not go past: both pieces
-    fit a kind with a mean fit below ``good``, or (``may_split``) some piece fits none
-    and each such piece is over ``min_pair`` (outline area times ``area_scale``) and may
-    be split. Returns per piece (cut c's are rows 2c and 2c + 1) ``meta`` (contour
-    start/end in ``c``/``nr``, point start/end in ``r``/``aw``/``xy``, hole start/end in
-    ``held``, kind or -1, bounding box as ``cv2.boundingRect``; a failed cut's pieces have
-    kind -2), ``scores`` (confidence, fit, descriptors), ``splits`` (cumulative polygon
-    sizes), then the concatenated arrays ``c``, ``nr``, ``r``, ``aw``, ``xy`` and the
-    held holes' indices ``held``."""
+    fit a kind with a mean fit below ``good``, or a piece fits none (and may be split).
+    Returns per piece (cut c's are rows 2c and 2c + 1) ``meta`` (contour start/end in
+    ``c``/``nr``, point start/end in ``r``/``aw``/``xy``, kind or -1 (-2: the cut
+    failed), hole start/end in ``held``, bounding box as ``cv2.boundingRect``),
+    ``scores`` (confidence, fit, descriptors), ``splits`` (cumulative polygon sizes),
+    then the concatenated arrays ``c``, ``nr``, ``r``, ``aw``, ``xy`` and the held
+    holes' indices ``held``."""
     n = contour.shape[0]
     n_holes = hole_first.shape[0]
+    hole_off = hole_starts - n
     m = min(first.shape[0], begin + count)
     size_c = size_r = 0
     for c in range(begin, m):
@@ -170,49 +208,31 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, first, 
     done = 0
     for c in range(begin, m):
         fi, fj = first[c], second[c]
-        p0 = 2 * done
+        p = 2 * done
         done += 1
+        meta[p, 4] = meta[p + 1, 4] = -2  # until both pieces are in
         s, e = starts[c], starts[c + 1]
         runs0, runs1 = np.arange(fi, fj + 1), np.arange(fj, n + fi + 1) % n
         if polygon_area(contour[runs0]) < 30 or polygon_area(contour[runs1]) < 30:
-            meta[p0, 4] = meta[p0 + 1, 4] = -2
-            for w in range(2):
-                meta[p0 + w, 0] = meta[p0 + w, 1] = kc
-                meta[p0 + w, 2] = meta[p0 + w, 3] = kr
-                meta[p0 + w, 5] = meta[p0 + w, 6] = kh
             continue
-        res = _two_pieces(contour, normals, rays, away, hole_starts, hole_first, runs0, runs1,
-                          cut[s:e], cut_normals[s:e], cut_rays[s:e], cut_away[s:e])
-        judged = True  # no piece fits no kind and cannot be split
-        known_fit = 0.0
-        for w in range(2):
-            arrs, holes = (res[0], res[2]) if w == 0 else (res[1], res[3])
-            pc, pn, pr, paw, psplits, box = arrs
-            kind, conf, fit, xy, row = _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi,
-                                                  bolt, bolt_height, nominal, sigmas, round_,
-                                                  round_facets, faceted, facet_w, max_fit,
-                                                  hopeless, gap, min_conf)
-            p = p0 + w
-            nc, nrays = pc.shape[0], pr.shape[0]
-            c_all[kc : kc + nc] = pc
-            nr_all[kc : kc + nc] = pn
-            r_all[kr : kr + nrays] = pr
-            aw_all[kr : kr + nrays] = paw
-            xy_all[kr : kr + nrays] = xy
-            held[kh : kh + holes.shape[0]] = holes
-            splits[p, : psplits.shape[0]] = psplits
-            meta[p, 0], meta[p, 1], meta[p, 2], meta[p, 3] = kc, kc + nc, kr, kr + nrays
-            meta[p, 5], meta[p, 6] = kh, kh + holes.shape[0]
-            meta[p, 4] = kind
-            meta[p, 7:] = box
-            scores[p, 0], scores[p, 1] = conf, fit
-            scores[p, 2:] = row
-            kc, kr, kh = kc + nc, kr + nrays, kh + holes.shape[0]
-            if kind >= 0:
-                known_fit += fit
-            elif not (may_split and polygon_area(pc) * area_scale > min_pair):
-                judged = False  # the cut fails: the search goes on
-        if judged and (meta[p0, 4] < 0 or meta[p0 + 1, 4] < 0 or known_fit / 2 < good):
+        arrs0, arrs1, holes0, holes1 = _two_pieces(
+            contour, normals, rays, away, hole_starts, hole_first, runs0, runs1, cut[s:e],
+            cut_normals[s:e], cut_rays[s:e], cut_away[s:e])
+        kind0, conf0, fit0, xy0, row0 = _fit_piece(
+            arrs0, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
+            round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
+        if _fails(kind0, arrs0[0], holes0, hole_pts, hole_off, may_split, area_scale, min_pair):
+            continue
+        kind1, conf1, fit1, xy1, row1 = _fit_piece(
+            arrs1, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
+            round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
+        if _fails(kind1, arrs1[0], holes1, hole_pts, hole_off, may_split, area_scale, min_pair):
+            continue
+        kc, kr, kh = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, meta, scores,
+                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
+        kc, kr, kh = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, meta, scores,
+                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
+        if kind0 < 0 or kind1 < 0 or (fit0 + fit1) / 2 < good:
             break
     pieces = 2 * done
     return (meta[:pieces], scores[:pieces], splits[:pieces], c_all[:kc], nr_all[:kc],

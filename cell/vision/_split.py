@@ -139,12 +139,11 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
     x, y, bw, bh = blob.mask_box
     ox, oy = x - 1, y - 1
     roi = np.zeros((bh + 2, bw + 2), np.uint8)
-    outline = np.round(blob.contour - 0.5 * blob.normals).astype(np.int32)
-    cv2.drawContours(roi, [outline], -1, 255, -1, offset=(-ox, -oy))
+    cv2.drawContours(roi, [int_outline(blob.contour, blob.normals)], -1, 255, -1,
+                     offset=(-ox, -oy))
     filled = roi.copy()  # holes filled: a washer's core is its whole disc
     for hole, hn in blob.holes:
-        hp = np.round(hole - 0.5 * hn).astype(np.int32)
-        cv2.drawContours(roi, [hp], -1, 0, -1, offset=(-ox, -oy))
+        cv2.drawContours(roi, [int_outline(hole, hn)], -1, 0, -1, offset=(-ox, -oy))
     for seeds in _core_cuts(filled):
         if budget[0] <= 0:
             return
@@ -180,23 +179,25 @@ def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int
     if not k.pinhole:
         rays, away = view.geo.plane_rays(cut, normals)
     holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
-    lengths = np.diff(starts).tolist()
+    hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else holes
+    ends = starts.tolist()
     c = 0
-    while c < len(lengths) and budget[0] > 0:
+    while c < len(ends) - 1 and budget[0] > 0:
         res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
-                            first, second, starts, cut, normals, rays, away, c, budget[0],
+                            hole_pts, first, second, starts, cut, normals, rays, away, c, budget[0],
                             may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
         meta = res[0].tolist()
         held = res[8].tolist()
         for p in range(0, len(meta), 2):
-            yield _batch_pieces(blob, res, meta, held, p), lengths[c]
+            yield _batch_pieces(blob, res, meta, held, p), ends[c + 1] - ends[c]
             c += 1
 
 
 def _batch_pieces(blob: Blob, res: tuple, meta: list, held: list, p: int) -> list[Piece] | None:
     """The two pieces, with their best kinds, of the cut whose pieces are rows ``p`` and
     ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta`` and
-    ``held`` its first and last arrays as lists); None when a piece is a speck."""
+    ``held`` its first and last arrays as lists); None when a piece is a speck, or fits
+    no kind and may not be split (as :func:`_judge` finds)."""
     if meta[p][4] == -2:
         return None
     _, scores, splits, c, nr, r, aw, xy, _ = res
@@ -230,16 +231,16 @@ class _Constants:
         self.area_scale = (geo.m_per_px * 1e3) ** 2
 
 
-_CONSTANTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_LAST: list = [None, None, None]  # the last geometry (weakly), confidence limit, constants
 
 
 def _constants(view: FrameView) -> _Constants:
-    """The view's :class:`_Constants`, made once per geometry and confidence limit."""
-    per_geo = _CONSTANTS.setdefault(view.geo, {})
-    conf = view.settings.min_kind_confidence
-    if conf not in per_geo:
-        per_geo[conf] = _Constants(view.geo, conf)
-    return per_geo[conf]
+    """The view's :class:`_Constants`, made again only when the geometry (the detector
+    keeps one per camera) or the confidence limit changes."""
+    geo, conf = view.geo, view.settings.min_kind_confidence
+    if _LAST[0] is None or _LAST[0]() is not geo or _LAST[1] != conf:
+        _LAST[:] = [weakref.ref(geo), conf, _Constants(geo, conf)]
+    return _LAST[2]
 
 
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
@@ -248,8 +249,7 @@ def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
         return None
     x0, y0, mask = parent.roi
     own = np.zeros_like(mask)
-    outline = np.round(piece.contour - 0.5 * piece.normals).astype(np.int32)
-    cv2.fillPoly(own, [outline], 255, offset=(-x0, -y0))
+    cv2.fillPoly(own, [int_outline(piece.contour, piece.normals)], 255, offset=(-x0, -y0))
     return x0, y0, cv2.bitwise_and(own, mask)
 
 

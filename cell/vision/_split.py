@@ -18,8 +18,9 @@ import weakref
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, blobs_of_mask, px_centroid
+from cell.vision._blob import Blob, make_blobs, px_centroid
 from cell.vision._cutfit import evaluate_cuts
+from cell.vision._cutraster import owned_pieces
 from cell.vision._cutsearch import cut_candidates, int_outline
 from cell.vision._footprint import Fit, Geometry, fit_arguments, fit_kinds, fit_of
 from cell.vision._segment import FrameView
@@ -265,25 +266,34 @@ def _core_cuts(roi: np.ndarray):
 
 
 def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list[Blob] | None:
-    """Every pixel of ``roi`` to its nearest seed: the pieces' blobs, or None when a piece
-    is a speck or not one region."""
-    _, near = cv2.distanceTransformWithLabels(
-        cv2.compare(seeds, 0, cv2.CMP_EQ), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL
-    )
-    seed_labels = seeds[seeds != 0]  # row-major, as DIST_LABEL_PIXEL numbers the seeds
-    lookup = np.zeros(max(int(near.max()), len(seed_labels)) + 1, np.uint8)
-    lookup[1 : len(seed_labels) + 1] = seed_labels
-    owner = cv2.bitwise_and(lookup.take(near), roi)  # roi is 0/255: outside it, nobody
-    subs = []
-    for lab in range(1, int(seeds.max()) + 1):
-        piece = cv2.compare(owner, lab, cv2.CMP_EQ)
-        if cv2.countNonZero(piece) < 30:
+    """Every pixel of ``roi`` to its nearest seed (:func:`cell.vision._cutraster.owned_pieces`):
+    the pieces' blobs (each the one outer contour of at least 8 points and 30 px^2 of its
+    mask, with holes, as :func:`cell.vision._blob.blobs_of_mask` finds them; all outlined
+    in one pass), or None when a piece is a speck or not one region."""
+    masks, counts = owned_pieces(roi, seeds)
+    contours: list = []
+    hier: list = []
+    outer, boxes = [], []
+    for mask, count in zip(masks, counts.tolist(), strict=True):
+        if count < 30:
             return None
-        sub = blobs_of_mask(piece, offset)
-        if len(sub) != 1:
+        cs, hr = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        if hr is None:
             return None
-        sub[0].roi = (offset[0], offset[1], piece)
-        subs.append(sub[0])
+        hr = hr[0].tolist()
+        own = [i for i, c in enumerate(cs) if hr[i][3] == -1 and len(c) >= 8
+               and cv2.contourArea(c) >= 30]
+        if len(own) != 1:
+            return None
+        bx, by, bw, bh = cv2.boundingRect(cs[own[0]])
+        boxes.append((bx + offset[0], by + offset[1], bw, bh))
+        base = len(contours)
+        outer.append(base + own[0])
+        contours.extend(cs)
+        hier.extend([[q + base if q >= 0 else -1 for q in row] for row in hr])
+    subs = make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
+    for sub, mask in zip(subs, masks, strict=True):
+        sub.roi = (offset[0], offset[1], mask)
     return subs
 
 

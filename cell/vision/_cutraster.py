@@ -24,6 +24,16 @@ _HV, _DIAG, _LONG = 65536, 91750, 143976
 _MAX = 2**32 - 1 - _LONG  # DIST_MAX: unsigned 32-bit, less the longest step
 
 
+@njit(cache=True, inline="always")
+def _relax(t0, l0, tmp, lab, q, step):  # pragma: no cover (compiled)
+    """The distance and label of a pixel after trying the neighbour at flat index ``q``
+    a ``step`` away: taken only when strictly nearer."""
+    t = tmp[q] + step
+    if t0 > t:
+        return t, lab[q]
+    return t0, l0
+
+
 @njit(cache=True)
 def nearest_labels(seeded):  # pragma: no cover (compiled)
     """Per pixel of ``seeded`` (uint8 (H, W), 0 on the seed pixels) the number of its
@@ -31,45 +41,49 @@ def nearest_labels(seeded):  # pragma: no cover (compiled)
     ``cv2.distanceTransformWithLabels(seeded, cv2.DIST_L2, 3,
     labelType=cv2.DIST_LABEL_PIXEL)[1]``."""
     h, w = seeded.shape
-    tmp = np.full((h + 4, w + 4), _MAX, np.int64)  # distances with a 2-pixel border
-    lab = np.zeros((h + 4, w + 4), np.int32)
+    st = w + 4  # the row stride of the distances and labels, with a 2-pixel border
+    tmp = np.full((h + 4) * st, _MAX, np.int64)
+    lab = np.zeros((h + 4) * st, np.int32)
     k = 1
     for i in range(h):
         for j in range(w):
             if seeded[i, j] == 0:
-                lab[i + 2, j + 2] = k
+                lab[(i + 2) * st + j + 2] = k
                 k += 1
-    offs_f = ((-2, -1, _LONG), (-2, 1, _LONG), (-1, -2, _LONG), (-1, -1, _DIAG), (-1, 0, _HV),
-              (-1, 1, _DIAG), (-1, 2, _LONG), (0, -1, _HV))
-    offs_b = ((2, 1, _LONG), (2, -1, _LONG), (1, 2, _LONG), (1, 1, _DIAG), (1, 0, _HV),
-              (1, -1, _DIAG), (1, -2, _LONG), (0, 1, _HV))
-    for i in range(2, h + 2):  # forward pass
-        for j in range(2, w + 2):
-            if seeded[i - 2, j - 2] == 0:
-                tmp[i, j] = 0
+    for i in range(h):  # forward pass
+        for j in range(w):
+            q = (i + 2) * st + j + 2
+            if seeded[i, j] == 0:
+                tmp[q] = 0
                 continue
-            t0 = _MAX
-            l0 = 0
-            for di, dj, step in offs_f:
-                t = tmp[i + di, j + dj] + step
-                if t0 > t:
-                    t0 = t
-                    l0 = lab[i + di, j + dj]
-            tmp[i, j] = t0
-            lab[i, j] = l0
-    for i in range(h + 1, 1, -1):  # backward pass
-        for j in range(w + 1, 1, -1):
-            t0 = tmp[i, j]
+            t0, l0 = _relax(_MAX, np.int32(0), tmp, lab, q - 2 * st - 1, _LONG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - 2 * st + 1, _LONG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - st - 2, _LONG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - st - 1, _DIAG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - st, _HV)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - st + 1, _DIAG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - st + 2, _LONG)
+            t0, l0 = _relax(t0, l0, tmp, lab, q - 1, _HV)
+            tmp[q] = t0
+            lab[q] = l0
+    out = np.empty((h, w), np.int32)
+    for i in range(h - 1, -1, -1):  # backward pass
+        for j in range(w - 1, -1, -1):
+            q = (i + 2) * st + j + 2
+            t0, l0 = tmp[q], lab[q]
             if t0 > _HV:
-                l0 = lab[i, j]
-                for di, dj, step in offs_b:
-                    t = tmp[i + di, j + dj] + step
-                    if t0 > t:
-                        t0 = t
-                        l0 = lab[i + di, j + dj]
-                tmp[i, j] = t0
-                lab[i, j] = l0
-    return lab[2 : h + 2, 2 : w + 2].copy()
+                t0, l0 = _relax(t0, l0, tmp, lab, q + 2 * st + 1, _LONG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + 2 * st - 1, _LONG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + st + 2, _LONG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + st + 1, _DIAG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + st, _HV)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + st - 1, _DIAG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + st - 2, _LONG)
+                t0, l0 = _relax(t0, l0, tmp, lab, q + 1, _HV)
+                tmp[q] = t0
+                lab[q] = l0
+            out[i, j] = l0
+    return out
 
 
 @njit(cache=True)

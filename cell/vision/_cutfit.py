@@ -158,6 +158,14 @@ def _fails(kind, contour, holes, hole_pts, hole_off, may_split, area_scale,
 
 
 @njit(cache=True)
+def _grown(a, used, need):  # pragma: no cover (compiled)
+    """(k, 2) array ``a`` with its first ``used`` rows, enlarged to hold ``need`` rows."""
+    out = np.empty((max(need, 2 * a.shape[0]), 2))
+    out[:used] = a[:used]
+    return out
+
+
+@njit(cache=True)
 def _store(p, arrs, holes, kind, conf, fit, xy, row, meta, scores, splits, c_all, nr_all, r_all,
            aw_all, xy_all, held, kc, kr, kh):  # pragma: no cover (compiled)
     """Write piece ``p`` into the output arrays at offsets (kc, kr, kh); the new offsets."""
@@ -208,21 +216,19 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
     n_holes = hole_first.shape[0]
     hole_off = hole_starts - n
     m = min(first.shape[0], begin + count)
-    size_c = size_r = 0
-    for c in range(begin, m):
-        k = starts[c + 1] - starts[c]
-        size_c += n + 2 + 2 * k
-        size_r += n + 2 + 2 * k + 2 * (rays.shape[0] - n)
     pieces = 2 * (m - begin)
     meta = np.zeros((pieces, 11), np.int64)
     scores = np.zeros((pieces, 12))
     splits = np.zeros((pieces, n_holes + 1), np.int64)
+    # room for one cut's pieces (the search mostly stops at the first); more on demand
+    size_c = n + 2 + 2 * (starts[begin + 1] - starts[begin]) if m > begin else 0
+    size_r = size_c + 2 * (rays.shape[0] - n)
     c_all = np.empty((size_c, 2))
     nr_all = np.empty((size_c, 2))
     r_all = np.empty((size_r, 2))
     aw_all = np.empty(size_r, np.bool_)
     xy_all = np.empty((size_r, 2))
-    held = np.empty(pieces * n_holes, np.int64)
+    held = np.empty(2 * n_holes, np.int64)
     kc = kr = kh = 0
     done = 0
     for c in range(begin, m):
@@ -247,6 +253,19 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
             round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
         if _fails(kind1, arrs1[0], holes1, hole_pts, hole_off, may_split, area_scale, min_pair):
             continue
+        need_c = kc + arrs0[0].shape[0] + arrs1[0].shape[0]
+        need_r = kr + arrs0[2].shape[0] + arrs1[2].shape[0]
+        if need_c > c_all.shape[0]:
+            c_all, nr_all = _grown(c_all, kc, need_c), _grown(nr_all, kc, need_c)
+        if need_r > r_all.shape[0]:
+            r_all, xy_all = _grown(r_all, kr, need_r), _grown(xy_all, kr, need_r)
+            aw = np.empty(max(need_r, 2 * aw_all.shape[0]), np.bool_)
+            aw[:kr] = aw_all[:kr]
+            aw_all = aw
+        if kh + holes0.shape[0] + holes1.shape[0] > held.shape[0]:
+            more = np.empty(2 * held.shape[0] + holes0.shape[0] + holes1.shape[0], np.int64)
+            more[:kh] = held[:kh]
+            held = more
         kc, kr, kh = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, meta, scores,
                             splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
         kc, kr, kh = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, meta, scores,

@@ -187,18 +187,19 @@ def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int
         res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
                             hole_pts, first, second, starts, cut, normals, rays, away, c, budget[0],
                             may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
-        meta = res[0].tolist()
-        held = res[8].tolist()
+        meta, fits, held = res[0].tolist(), res[1][:, :2].tolist(), res[8].tolist()
         for p in range(0, len(meta), 2):
-            yield _batch_pieces(blob, res, meta, held, p), ends[c + 1] - ends[c]
+            yield _batch_pieces(blob, res, meta, fits, held, p), ends[c + 1] - ends[c]
             c += 1
 
 
-def _batch_pieces(blob: Blob, res: tuple, meta: list, held: list, p: int) -> list[Piece] | None:
+def _batch_pieces(blob: Blob, res: tuple, meta: list, fits: list, held: list,
+                  p: int) -> list[Piece] | None:
     """The two pieces, with their best kinds, of the cut whose pieces are rows ``p`` and
-    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta`` and
-    ``held`` its first and last arrays as lists); None when a piece is a speck, or fits
-    no kind and may not be split (as :func:`_judge` finds)."""
+    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta``, ``fits``
+    and ``held`` its first array, its second's first two columns and its last array, as
+    lists); None when a piece is a speck, or fits no kind and may not be split (as
+    :func:`_judge` finds)."""
     if meta[p][4] == -2:
         return None
     _, scores, splits, c, nr, r, aw, xy, _ = res
@@ -209,7 +210,7 @@ def _batch_pieces(blob: Blob, res: tuple, meta: list, held: list, p: int) -> lis
                      (bx, by, bw, bh), False)
         spl = splits[q, : 1 + h1 - h0]
         piece.rays, piece.away, piece.splits = r[r0:r1], aw[r0:r1], spl
-        conf, fit = scores[q, :2].tolist()
+        conf, fit = fits[q]
         out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", conf,
                     fit_of(xy[r0:r1], scores[q, 2:], spl), fit))
     return out

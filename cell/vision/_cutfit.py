@@ -1,12 +1,14 @@
-"""A straight cut through a blob of touching parts, made and fitted in one compiled pass.
+"""Straight cuts through a blob of touching parts, made and fitted in one compiled pass.
 
 The split stage (:mod:`cell.vision._split`) tries cuts between pairs of convexity defects
-of a blob's outline. For one cut, :func:`cut_pieces` builds the two pieces (each the
-outline between the defect points, closed by the cut's points, with the holes whose first
-point lies inside it: a crossing-number test, as ``cv2.pointPolygonTest``), rejects specks
-(under 30 px^2, shoelace area as ``cv2.contourArea``) and fits each piece's kind
-(:func:`cell.vision._kindfit.fit_one`), all in numba: in Python the same took a few dozen
-numpy calls per cut.
+of a blob's outline (:mod:`cell.vision._cutsearch`). :func:`evaluate_cuts` takes the
+cuts one after another: for each it builds the two pieces (each the outline between the
+defect points, closed by the cut's points, with the holes whose first point lies inside
+it: a crossing-number test, as ``cv2.pointPolygonTest``), rejects specks (under 30 px^2,
+shoelace area as ``cv2.contourArea``), fits each piece's kind
+(:func:`cell.vision._kindfit.fit_one`) and judges the cut as the search does, and stops
+at the first cut the search stops at or recurses from: one call per blob where Python
+took a few dozen numpy calls per cut.
 """
 
 from __future__ import annotations

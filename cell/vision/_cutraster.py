@@ -42,7 +42,7 @@ def nearest_labels(seeded):  # pragma: no cover (compiled)
     labelType=cv2.DIST_LABEL_PIXEL)[1]``."""
     h, w = seeded.shape
     st = w + 4  # the row stride of the distances and labels, with a 2-pixel border
-    tmp = np.full((h + 4) * st, _MAX, np.int64)
+    tmp = np.full((h + 4) * st, _MAX, np.uint32)
     lab = np.zeros((h + 4) * st, np.int32)
     k = 1
     for i in range(h):

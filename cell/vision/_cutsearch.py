@@ -15,10 +15,12 @@ cuts are those :mod:`cell.vision._split` made point by point in Python, bit for 
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 from numba import njit
 
+from cell.vision._footprint import Geometry, fit_arguments
 from cell.vision._polygons import _rays
 
 __all__: list[str] = []  # private to cell.vision
@@ -214,3 +216,31 @@ def cut_candidates(contour, normals, outline, defects, pinhole, fx, fy, cx, cy, 
     if pinhole:
         _rays(cut, cut, out, True, fx, fy, cx, cy, skew, R, nx, ny, has_nadir, rays, away)
     return first, second, starts, cut, out, rays, away
+
+
+class SearchConstants:
+    """What the compiled cut search needs of a frame's camera and settings: the pinhole
+    camera's entries (as :func:`cell.vision._polygons.plane_rays` takes them), the
+    compiled fit's constant arguments (:func:`~cell.vision._footprint.fit_arguments`),
+    the scale from pixel to table-plane area (mm^2 per px^2, as ``Geometry.area_mm2``)."""
+
+    def __init__(self, geo: Geometry, min_confidence: float) -> None:
+        K, nadir = geo.camera.K, geo.nadir
+        self.pinhole = not bool(np.any(geo.camera.dist))
+        self.camera = (self.pinhole, float(K[0, 0]), float(K[1, 1]), float(K[0, 2]),
+                       float(K[1, 2]), float(K[0, 1]), np.ascontiguousarray(geo.R, dtype=np.float64),
+                       0.0 if nadir is None else float(nadir[0]),
+                       0.0 if nadir is None else float(nadir[1]), nadir is not None)
+        self.fit = fit_arguments(geo, min_confidence)
+        self.area_scale = (geo.m_per_px * 1e3) ** 2
+
+
+_LAST: list = [None, None, None]  # the last geometry (weakly), confidence limit, constants
+
+
+def search_constants(geo: Geometry, min_confidence: float) -> SearchConstants:
+    """:class:`SearchConstants` of a geometry and confidence limit, made again only when
+    either changes (the detector keeps one geometry per camera)."""
+    if _LAST[0] is None or _LAST[0]() is not geo or _LAST[1] != min_confidence:
+        _LAST[:] = [weakref.ref(geo), min_confidence, SearchConstants(geo, min_confidence)]
+    return _LAST[2]

@@ -7,13 +7,14 @@ separation; Gonzalez & Woods, *Digital Image Processing*, ch. 9-10), every pixel
 to its nearest core. The candidate whose pieces fit their kinds best wins. A piece that
 fits no kind is split again (chains of up to four parts) when it is large enough to
 hold two parts; one that fits a kind poorly only when no cut's pieces fit well as they
-are.
+are. The outline cuts are generated, built and fitted in compiled passes
+(:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`), the cores' pieces found in
+one (:mod:`cell.vision._cutraster`); the search itself stays here.
 """
 
 from __future__ import annotations
 
 import math
-import weakref
 
 import cv2
 import numpy as np
@@ -21,8 +22,8 @@ import numpy as np
 from cell.vision._blob import Blob, make_blobs, px_centroid
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
-from cell.vision._cutsearch import cut_candidates, int_outline
-from cell.vision._footprint import Fit, Geometry, fit_arguments, fit_kinds, fit_of
+from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
+from cell.vision._footprint import Fit, fit_kinds, fit_of
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -174,7 +175,7 @@ def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int
     if defects is None:
         return
     view.geo.prepare([blob])
-    k = _constants(view)
+    k = search_constants(view.geo, view.settings.min_kind_confidence)
     first, second, starts, cut, normals, rays, away = cut_candidates(
         blob.contour, blob.normals, outline, defects.reshape(-1, 4), *k.camera)
     if not k.pinhole:
@@ -216,35 +217,6 @@ def _batch_pieces(blob: Blob, res: tuple, meta: list, fits: list, held: list,
     return out
 
 
-class _Constants:
-    """What the compiled cut search needs of a frame's camera and settings: the pinhole
-    camera's entries (as :func:`cell.vision._polygons.plane_rays` takes them), the
-    compiled fit's constant arguments (:func:`~cell.vision._footprint.fit_arguments`),
-    the scale from pixel to table-plane area (mm^2 per px^2, as ``Geometry.area_mm2``)."""
-
-    def __init__(self, geo: Geometry, min_confidence: float) -> None:
-        K, nadir = geo.camera.K, geo.nadir
-        self.pinhole = not bool(np.any(geo.camera.dist))
-        self.camera = (self.pinhole, float(K[0, 0]), float(K[1, 1]), float(K[0, 2]),
-                       float(K[1, 2]), float(K[0, 1]), np.ascontiguousarray(geo.R, dtype=np.float64),
-                       0.0 if nadir is None else float(nadir[0]),
-                       0.0 if nadir is None else float(nadir[1]), nadir is not None)
-        self.fit = fit_arguments(geo, min_confidence)
-        self.area_scale = (geo.m_per_px * 1e3) ** 2
-
-
-_LAST: list = [None, None, None]  # the last geometry (weakly), confidence limit, constants
-
-
-def _constants(view: FrameView) -> _Constants:
-    """The view's :class:`_Constants`, made again only when the geometry (the detector
-    keeps one per camera) or the confidence limit changes."""
-    geo, conf = view.geo, view.settings.min_kind_confidence
-    if _LAST[0] is None or _LAST[0]() is not geo or _LAST[1] != conf:
-        _LAST[:] = [weakref.ref(geo), conf, _Constants(geo, conf)]
-    return _LAST[2]
-
-
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
     """A polygon piece's own pixels: its outline filled, within the parent's pixels."""
     if parent.roi is None:
@@ -260,8 +232,7 @@ def _core_cuts(roi: np.ndarray):
     filled blob at a few depths (3, 5, 8, 12 px) that give two or three cores."""
     dist = cv2.distanceTransform(roi, cv2.DIST_L2, 3)
     for level in (3.0, 5.0, 8.0, 12.0):
-        cores = (dist > level).astype(np.uint8)
-        n, labels = cv2.connectedComponents(cores)
+        n, labels = cv2.connectedComponents(cv2.compare(dist, level, cv2.CMP_GT))
         if 3 <= n <= 4:
             yield labels.astype(np.uint8)
 

@@ -21,12 +21,12 @@ from cell.vision.settings import VisionSettings
 PLANE_Z = 0.08
 
 
-def _camera() -> CameraModel:
+def _camera(dist: np.ndarray | None = None) -> CameraModel:
     K = np.array([[660.0, 0, 319.5], [0, 660.0, 239.5], [0, 0, 1]])
     T = np.eye(4)
     T[:3, :3] = np.diag([1.0, -1.0, -1.0])
     T[:3, 3] = (0.0, 0.45, 0.48)
-    return CameraModel(640, 480, K, np.zeros(5), T)
+    return CameraModel(640, 480, K, np.zeros(5) if dist is None else dist, T)
 
 
 def _view(camera: CameraModel) -> FrameView:
@@ -51,8 +51,10 @@ def _disc(centre, radius=0.015, n=120) -> np.ndarray:
     return np.c_[centre[0] + radius * np.cos(t), centre[1] + radius * np.sin(t)]
 
 
-def test_two_touching_discs_come_out_as_two_discs_where_they_lie():
-    camera = _camera()
+@pytest.mark.parametrize("dist", [None, np.array([-0.12, 0.05, 0.001, -0.0005, 0.0])])
+def test_two_touching_discs_come_out_as_two_discs_where_they_lie(dist):
+    """Also through a distorting lens (the cuts' rays then come from undistorted points)."""
+    camera = _camera(dist)
     centres = [(-0.02, 0.45), (0.0105, 0.452)]  # 30.5 mm apart: just touching in the image
     h = KINDS["disc"].height
     mask = _mask_of(camera, [_disc(c) for c in centres], h)

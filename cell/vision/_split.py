@@ -19,11 +19,12 @@ import math
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, make_blobs, px_centroid
+from cell.camera import CameraModel
+from cell.vision._blob import Blob, blobs_of_mask, make_blobs, px_centroid
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
 from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
-from cell.vision._footprint import Fit, fit_kinds, fit_of
+from cell.vision._footprint import Fit, Geometry, fit_kinds, fit_of
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -131,7 +132,8 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
     guesses first: straight cuts between pairs of deep convexity defects, made on the
     outline itself (:func:`_polygon_cuts`); then cores of the distance transform, on the
     rasterised blob (:func:`_core_cuts`)."""
-    for pieces, cut in _polygon_cuts(blob, view, may_split, budget):
+    geo, conf = view.geo, view.settings.min_kind_confidence
+    for pieces, cut in _polygon_cuts(blob, geo, conf, may_split, budget):
         if budget[0] <= 0:
             return
         budget[0] -= 1
@@ -154,7 +156,8 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
         yield None if pieces is None else _evaluate(pieces, view, may_split)
 
 
-def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int]):
+def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: bool,
+                  budget: list[int]):
     """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
     for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
     (``cv2.convexityDefects``; the cuts: :func:`cell.vision._cutsearch.cut_candidates`).
@@ -174,12 +177,12 @@ def _polygon_cuts(blob: Blob, view: FrameView, may_split: bool, budget: list[int
         return
     if defects is None:
         return
-    view.geo.prepare([blob])
-    k = search_constants(view.geo, view.settings.min_kind_confidence)
+    geo.prepare([blob])
+    k = search_constants(geo, min_confidence)
     first, second, starts, cut, normals, rays, away = cut_candidates(
         blob.contour, blob.normals, outline, defects.reshape(-1, 4), *k.camera)
     if not k.pinhole:
-        rays, away = view.geo.plane_rays(cut, normals)
+        rays, away = geo.plane_rays(cut, normals)
     holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
     hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else holes
     ends = starts.tolist()
@@ -290,10 +293,19 @@ def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
 
 
 def warm_up() -> None:
-    """Run the distance-transform cut (cores, owners, pieces' contours) once on a made-up
-    mask of two touching discs, so its first real use loads nothing."""
+    """Run both kinds of cut (on the outline: cut generation, pieces and fits; on the
+    raster: cores, owners, pieces' contours) once on a made-up blob of two touching
+    discs, so their first real use loads nothing."""
     roi = np.zeros((40, 70), np.uint8)
     cv2.circle(roi, (20, 20), 14, 255, -1)
     cv2.circle(roi, (47, 20), 14, 255, -1)
     for seeds in _core_cuts(roi):
         _pieces(roi, seeds, (0, 0))
+    K = np.array([[600.0, 0, 35.0], [0, 600.0, 20.0], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, :3] = np.diag([1.0, -1.0, -1.0])
+    T[:3, 3] = (0.0, 0.0, 0.4)
+    geo = Geometry(CameraModel(70, 40, K, np.zeros(5), T), 0.0)
+    blob = blobs_of_mask(roi, (0, 0))[0]
+    for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
+        pass

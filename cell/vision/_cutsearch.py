@@ -235,12 +235,15 @@ class SearchConstants:
         self.area_scale = (geo.m_per_px * 1e3) ** 2
 
 
-_LAST: list = [None, None, None]  # the last geometry (weakly), confidence limit, constants
+_LAST: list = [None]  # (the last geometry, weakly; its confidence limit; their constants)
 
 
 def search_constants(geo: Geometry, min_confidence: float) -> SearchConstants:
     """:class:`SearchConstants` of a geometry and confidence limit, made again only when
-    either changes (the detector keeps one geometry per camera)."""
-    if _LAST[0] is None or _LAST[0]() is not geo or _LAST[1] != min_confidence:
-        _LAST[:] = [weakref.ref(geo), min_confidence, SearchConstants(geo, min_confidence)]
-    return _LAST[2]
+    either changes (the detector keeps one geometry per camera). The cache is one tuple,
+    read and replaced whole, so threads sharing it never mix two cameras' entries."""
+    last = _LAST[0]
+    if last is None or last[0]() is not geo or last[1] != min_confidence:
+        last = (weakref.ref(geo), min_confidence, SearchConstants(geo, min_confidence))
+        _LAST[0] = last
+    return last[2]

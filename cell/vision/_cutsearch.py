@@ -118,6 +118,48 @@ def point_in_polygon(poly, px, py):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def convexity_defects(points, hull):  # pragma: no cover (compiled)
+    """``cv2.convexityDefects(points, hull)`` (imgproc/src/convhull.cpp) of an integer
+    contour ``points`` (N, 2) and its hull indices (``cv2.convexHull(...,
+    returnPoints=False)``, flattened): rows (start, end, farthest point, depth in 1/256
+    px, rounded half to even as ``cvRound``), one per hull edge with points off it, and
+    False where OpenCV raises (hull indices not monotonous: a self-touching contour)."""
+    n, h = points.shape[0], hull.shape[0]
+    out = np.empty((h, 4), np.int64)
+    if n <= 3 or h < 3:
+        return out[:0], True
+    rev = ((hull[1] > hull[0]) + (hull[2] > hull[1]) + (hull[0] > hull[2])) != 2
+    hcurr = hull[0] if rev else hull[h - 1]
+    increasing = -1
+    k = 0
+    for i in range(h):
+        hnext = hull[h - i - 1] if rev else hull[i]
+        if increasing < 0:
+            increasing = 0 if hcurr < hnext else 1
+        elif increasing != (1 if hcurr < hnext else 0):
+            return out[:0], False
+        x0, y0 = float(points[hcurr, 0]), float(points[hcurr, 1])
+        dx0, dy0 = float(points[hnext, 0]) - x0, float(points[hnext, 1]) - y0
+        scale = 0.0 if dx0 == 0 and dy0 == 0 else 1.0 / math.sqrt(dx0 * dx0 + dy0 * dy0)
+        deepest, depth = -1, 0.0
+        j = hcurr
+        while True:
+            j = j + 1 if j + 1 < n else 0
+            if j == hnext:
+                break
+            dx, dy = float(points[j, 0]) - x0, float(points[j, 1]) - y0
+            dist = abs(-dy0 * dx + dx0 * dy) * scale
+            if dist > depth:
+                depth, deepest = dist, j
+        if deepest >= 0:
+            out[k, 0], out[k, 1], out[k, 2] = hcurr, hnext, deepest
+            out[k, 3] = np.int64(np.rint(depth * 256))
+            k += 1
+        hcurr = hnext
+    return out[:k], True
+
+
+@njit(cache=True)
 def _pairs(outline, defects):  # pragma: no cover (compiled)
     """The pairs (first, second outline index) of the deepest defects, best first."""
     k = defects.shape[0]
@@ -157,16 +199,20 @@ def _pairs(outline, defects):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def cut_candidates(contour, normals, outline, defects, pinhole, fx, fy, cx, cy, skew, R, nx, ny,
+def cut_candidates(contour, normals, outline, hull, pinhole, fx, fy, cx, cy, skew, R, nx, ny,
                    has_nadir):  # pragma: no cover (compiled)
     """The cuts of a blob (``contour``/``normals`` its outline, ``outline`` its pixel
-    centres, ``defects`` (k, 4) its convexity defects): per cut the outline indices
+    centres, ``hull`` their convex hull's indices; none where the hull is not monotonous,
+    see :func:`convexity_defects`): per cut the outline indices
     (first, second) of its ends, its points ``cut[starts[c]:starts[c + 1]]`` from the
     second end back to the first (excluding both) with their outward normals, and, on a
     ``pinhole`` camera (``K`` entries, camera-to-world ``R``, nadir pixel), their rays
     and top-edge flags as :func:`cell.vision._polygons.plane_rays` gives them."""
     n = outline.shape[0]
+    defects, ok = convexity_defects(outline, hull)
     lo, hi = _pairs(outline, defects)
+    if not ok:
+        lo, hi = lo[:0], hi[:0]
     # which side of the direction of travel the outward normals lie on (+1: left turn)
     side = 1.0 if ((contour[1, 0] - contour[0, 0]) * normals[0, 1]
                    - (contour[1, 1] - contour[0, 1]) * normals[0, 0]) > 0 else -1.0

@@ -160,7 +160,8 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
                   budget: list[int]):
     """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
     for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
-    (``cv2.convexityDefects``; the cuts: :func:`cell.vision._cutsearch.cut_candidates`).
+    (``cv2.convexHull``, then ``cv2.convexityDefects`` as ported in
+    :func:`cell.vision._cutsearch.cut_candidates`, which makes the cuts).
     A piece is the outline between the two defect points, closed by the cut, with the
     holes inside it; its rays come from the blob's (no new contour tracing). The cuts
     are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each
@@ -171,16 +172,10 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
     hull = cv2.convexHull(outline, returnPoints=False)
     if hull is None or len(hull) < 4:
         return
-    try:
-        defects = cv2.convexityDefects(outline, hull)
-    except cv2.error:
-        return
-    if defects is None:
-        return
     geo.prepare([blob])
     k = search_constants(geo, min_confidence)
     first, second, starts, cut, normals, rays, away = cut_candidates(
-        blob.contour, blob.normals, outline, defects.reshape(-1, 4), *k.camera)
+        blob.contour, blob.normals, outline, hull.reshape(-1), *k.camera)
     if not k.pinhole:
         rays, away = geo.plane_rays(cut, normals)
     holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))

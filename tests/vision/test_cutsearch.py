@@ -1,6 +1,6 @@
 """The split stage's compiled cut generation against what it replaces: CPython's
-``math.hypot``, ``cv2.pointPolygonTest``, ``np.round``, and the cuts the Python search
-made from ``cv2.convexityDefects`` (pairs, order, sampled points, normals, rays)."""
+``math.hypot``, ``cv2.pointPolygonTest``, ``np.round``, ``cv2.convexityDefects``, and
+the cuts the Python search made from them (pairs, order, sampled points, normals, rays)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cell.vision._blob import blobs_of_mask
-from cell.vision._cutsearch import cut_candidates, int_outline, point_in_polygon, py_hypot
+from cell.vision._cutsearch import (
+    convexity_defects,
+    cut_candidates,
+    int_outline,
+    point_in_polygon,
+    py_hypot,
+)
 from cell.vision._polygons import plane_rays
 from tests.vision.test_split import _camera
 
@@ -101,7 +107,7 @@ def test_cuts_are_those_the_python_search_made(seed):
             continue
         defects = defects.reshape(-1, 4)
         first, second, starts, cut, out, rays, away = cut_candidates(
-            blob.contour, blob.normals, outline, defects, True, K[0, 0], K[1, 1], K[0, 2],
+            blob.contour, blob.normals, outline, hull.reshape(-1), True, K[0, 0], K[1, 1], K[0, 2],
             K[1, 2], K[0, 1], np.ascontiguousarray(R), 300.0, 250.0, True)
         expect = list(_python_cuts(blob.contour, blob.normals, outline, defects))
         assert len(expect) == len(first)
@@ -113,3 +119,39 @@ def test_cuts_are_those_the_python_search_made(seed):
             erays, eaway = plane_rays(ecut, eout, None, K, R, np.array([300.0, 250.0]))
             np.testing.assert_array_equal(rays[s:e], erays)
             np.testing.assert_array_equal(away[s:e], eaway)
+
+
+def _scribble(rng: np.random.Generator) -> np.ndarray:
+    """A mask of random discs, boxes and thin lines (thin parts make self-touching
+    outlines, whose hull OpenCV finds not monotonous)."""
+    mask = np.zeros((120, 160), np.uint8)
+    for _ in range(rng.integers(1, 6)):
+        x, y = (int(v) for v in rng.integers(10, 110, 2))
+        pick = rng.random()
+        if pick < 0.4:
+            cv2.circle(mask, (x, y), int(rng.integers(3, 30)), 255, -1)
+        elif pick < 0.7:
+            end = (int(rng.integers(0, 160)), int(rng.integers(0, 120)))
+            cv2.line(mask, (x, y), end, 255, int(rng.integers(1, 4)))
+        else:
+            box = ((x, y), tuple(float(v) for v in rng.integers(2, 50, 2)), float(rng.uniform(0, 180)))
+            cv2.fillPoly(mask, [cv2.boxPoints(box).astype(np.int32)], 255)
+    return mask
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31))
+def test_convexity_defects_match_opencv(seed):
+    """Same rows in the same order, and False exactly where OpenCV raises."""
+    for blob in blobs_of_mask(_scribble(np.random.default_rng(seed)), (0, 0)):
+        outline = int_outline(blob.contour, blob.normals)
+        hull = cv2.convexHull(outline, returnPoints=False)
+        try:
+            expect, ok = cv2.convexityDefects(outline, hull), True
+        except cv2.error:
+            expect, ok = None, False
+        got, got_ok = convexity_defects(outline, hull.reshape(-1))
+        assert got_ok == ok
+        if ok:
+            np.testing.assert_array_equal(
+                got, np.zeros((0, 4)) if expect is None else expect.reshape(-1, 4))

@@ -118,6 +118,73 @@ def point_in_polygon(poly, px, py):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def _cross(points, o, a, b):  # pragma: no cover (compiled)
+    """z of (a - o) x (b - o) for points o, a, b (indices; exact on integers)."""
+    return ((points[a, 0] - points[o, 0]) * (points[b, 1] - points[o, 1])
+            - (points[a, 1] - points[o, 1]) * (points[b, 0] - points[o, 0]))
+
+
+@njit(cache=True)
+def convex_hull(points):  # pragma: no cover (compiled)
+    """``cv2.convexHull(points, returnPoints=False)`` (flattened) of an integer contour
+    whose hull is plain: its vertices (Andrew's monotone chain, *Information Processing
+    Letters* 9, 1979; no collinear vertices, as OpenCV's Sklansky scan keeps none) in
+    OpenCV's order (positive shoelace area, starting at the lowest index when the
+    indices then ascend, at the highest when they descend). Empty where the hull is not
+    plain (a vertex the contour passes twice, indices not monotonous, fewer than three
+    vertices): OpenCV's choices there are left to OpenCV."""
+    n = points.shape[0]
+    empty = np.empty(0, np.int32)
+    if n < 3:
+        return empty
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        key[i] = (np.int64(points[i, 0]) + 2**20) * 2**22 + (np.int64(points[i, 1]) + 2**20)
+    order = np.argsort(key)
+    h = np.empty(2 * n + 1, np.int64)
+    k = 0
+    for i in order:  # lower hull, then upper: counter-clockwise in (x, y)
+        while k >= 2 and _cross(points, h[k - 2], h[k - 1], i) <= 0:
+            k -= 1
+        h[k] = i
+        k += 1
+    low = k + 1
+    for q in range(n - 2, -1, -1):
+        i = order[q]
+        while k >= low and _cross(points, h[k - 2], h[k - 1], i) <= 0:
+            k -= 1
+        h[k] = i
+        k += 1
+    m = k - 1
+    if m < 3:
+        return empty
+    for v in range(m):  # a vertex the contour passes twice: which index OpenCV takes varies
+        count = 0
+        for j in range(n):
+            if points[j, 0] == points[h[v], 0] and points[j, 1] == points[h[v], 1]:
+                count += 1
+        if count > 1:
+            return empty
+    lo = hi = 0
+    for v in range(1, m):
+        if h[v] < h[lo]:
+            lo = v
+        if h[v] > h[hi]:
+            hi = v
+    up = down = True
+    for v in range(1, m):
+        up = up and h[(lo + v) % m] > h[(lo + v - 1) % m]
+        down = down and h[(hi + v) % m] < h[(hi + v - 1) % m]
+    if not (up or down):
+        return empty
+    start = lo if up else hi
+    out = np.empty(m, np.int32)
+    for v in range(m):
+        out[v] = h[(start + v) % m]
+    return out
+
+
+@njit(cache=True)
 def convexity_defects(points, hull):  # pragma: no cover (compiled)
     """``cv2.convexityDefects(points, hull)`` (imgproc/src/convhull.cpp) of an integer
     contour ``points`` (N, 2) and its hull indices (``cv2.convexHull(...,

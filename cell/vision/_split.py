@@ -23,7 +23,7 @@ from cell.camera import CameraModel
 from cell.vision._blob import Blob, blobs_of_mask, make_blobs, px_centroid
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
-from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
+from cell.vision._cutsearch import convex_hull, cut_candidates, int_outline, search_constants
 from cell.vision._footprint import Fit, Geometry, fit_kinds, fit_of
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
@@ -160,8 +160,8 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
                   budget: list[int]):
     """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
     for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
-    (``cv2.convexHull``, then ``cv2.convexityDefects`` as ported in
-    :func:`cell.vision._cutsearch.cut_candidates`, which makes the cuts).
+    (``cv2.convexHull`` and ``cv2.convexityDefects`` as ported in
+    :mod:`cell.vision._cutsearch`, which makes the cuts).
     A piece is the outline between the two defect points, closed by the cut, with the
     holes inside it; its rays come from the blob's (no new contour tracing). The cuts
     are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each
@@ -169,13 +169,16 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
     outline = int_outline(blob.contour, blob.normals)
     if len(outline) < 5:
         return
-    hull = cv2.convexHull(outline, returnPoints=False)
-    if hull is None or len(hull) < 4:
+    hull = convex_hull(outline)
+    if len(hull) == 0:  # not plain: OpenCV decides
+        hull = cv2.convexHull(outline, returnPoints=False)
+        hull = np.empty(0, np.int32) if hull is None else hull.reshape(-1)
+    if len(hull) < 4:
         return
     geo.prepare([blob])
     k = search_constants(geo, min_confidence)
     first, second, starts, cut, normals, rays, away = cut_candidates(
-        blob.contour, blob.normals, outline, hull.reshape(-1), *k.camera)
+        blob.contour, blob.normals, outline, hull, *k.camera)
     if not k.pinhole:
         rays, away = geo.plane_rays(cut, normals)
     holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))

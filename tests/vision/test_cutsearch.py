@@ -1,5 +1,6 @@
 """The split stage's compiled cut generation against what it replaces: CPython's
-``math.hypot``, ``cv2.pointPolygonTest``, ``np.round``, ``cv2.convexityDefects``, and
+``math.hypot``, ``cv2.pointPolygonTest``, ``np.round``, ``cv2.convexHull``,
+``cv2.convexityDefects``, and
 the cuts the Python search made from them (pairs, order, sampled points, normals, rays)."""
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 
 from cell.vision._blob import blobs_of_mask
 from cell.vision._cutsearch import (
+    convex_hull,
     convexity_defects,
     cut_candidates,
     int_outline,
@@ -155,3 +157,19 @@ def test_convexity_defects_match_opencv(seed):
         if ok:
             np.testing.assert_array_equal(
                 got, np.zeros((0, 4)) if expect is None else expect.reshape(-1, 4))
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31))
+def test_plain_convex_hulls_match_opencv(seed):
+    """Where the compiled hull answers (not empty), it is OpenCV's, index for index, for
+    contours as traced, reversed and starting anywhere."""
+    rng = np.random.default_rng(seed)
+    for blob in blobs_of_mask(_scribble(rng), (0, 0)):
+        outline = int_outline(blob.contour, blob.normals)
+        turn = int(rng.integers(len(outline)))
+        for pts in (outline, outline[::-1].copy(), np.roll(outline, turn, axis=0).copy()):
+            got = convex_hull(pts)
+            if len(got):
+                np.testing.assert_array_equal(
+                    got, cv2.convexHull(pts, returnPoints=False).reshape(-1))

@@ -158,12 +158,12 @@ def convex_hull(points):  # pragma: no cover (compiled)
     m = k - 1
     if m < 3:
         return empty
+    rank = np.empty(n, np.int64)  # equal points lie side by side in the sorted order
+    for q in range(n):
+        rank[order[q]] = q
     for v in range(m):  # a vertex the contour passes twice: which index OpenCV takes varies
-        count = 0
-        for j in range(n):
-            if points[j, 0] == points[h[v], 0] and points[j, 1] == points[h[v], 1]:
-                count += 1
-        if count > 1:
+        q = rank[h[v]]
+        if (q > 0 and key[order[q - 1]] == key[h[v]]) or (q + 1 < n and key[order[q + 1]] == key[h[v]]):
             return empty
     lo = hi = 0
     for v in range(1, m):

@@ -23,8 +23,9 @@ from cell.camera import CameraModel
 from cell.vision._blob import Blob, blobs_of_mask, make_blobs, px_centroid
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
-from cell.vision._cutsearch import convex_hull, cut_candidates, int_outline, search_constants
+from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
 from cell.vision._footprint import Fit, Geometry, fit_kinds, fit_of
+from cell.vision._hull import convex_hull
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -160,8 +161,8 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
                   budget: list[int]):
     """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
     for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
-    (``cv2.convexHull`` and ``cv2.convexityDefects`` as ported in
-    :mod:`cell.vision._cutsearch`, which makes the cuts).
+    (``cv2.convexHull`` and ``cv2.convexityDefects`` as ported in :mod:`cell.vision._hull`;
+    :mod:`cell.vision._cutsearch` makes the cuts).
     A piece is the outline between the two defect points, closed by the cut, with the
     holes inside it; its rays come from the blob's (no new contour tracing). The cuts
     are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each

@@ -54,13 +54,16 @@ Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint
 
 def split_blob(blob: Blob, view: FrameView, *,
                whole_fit: float = math.inf) -> list[tuple[Blob, str, float, Fit]]:
-    """Pieces (blob, kind, confidence, footprint) of a blob of touching parts, or [] when
-    no cut gives pieces that fit their kinds (mean fit below ``_ACCEPT``), or when the
-    blob is too small to hold two parts."""
+    """Pieces (blob, kind, confidence, footprint with the piece's pixel centroid) of a
+    blob of touching parts, or [] when no cut gives pieces that fit their kinds (mean fit
+    below ``_ACCEPT``), or when the blob is too small to hold two parts."""
     limit = _ACCEPT
     if math.isfinite(whole_fit):  # the whole blob fits a kind, poorly: a clearly better cut wins
         limit = max(_ACCEPT, min(whole_fit - _BETTER, _POOR))
-    return [p[:4] for p in _split(blob, view, 0, [_BUDGET], limit)]
+    pieces = _split(blob, view, 0, [_BUDGET], limit)
+    for p in pieces:  # (only the pieces kept: the search never reads a centroid)
+        p[3].centroid_px = px_centroid(p[0])
+    return [p[:4] for p in pieces]
 
 
 def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
@@ -99,7 +102,6 @@ def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
     if best_cost >= limit:
         return []
     for p in best:
-        p[3].centroid_px = px_centroid(p[0])
         if p[0].roi is None:
             p[0].roi = _piece_roi(p[0], blob)
     return best

@@ -117,9 +117,10 @@ def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference of every other pixel of ``img``
     (H, 3 W) uint8 (RGB rows) from ``bgh`` (h, 3 w), on rows 2, 6, 10, ... (those
     :func:`median_mad` reads) when ``sample``, else on all the others."""
+    diff = np.empty(bgh.shape[1], np.uint8)
     for y in range(dmax.shape[0]):
         if (y % 4 == 2) == sample:
-            max_diff_half(img[2 * y], bgh[y], dmax[y])
+            max_diff_half(img[2 * y], bgh[y], diff, dmax[y])
 
 
 @njit(cache=True)
@@ -127,20 +128,22 @@ def max_diff(src, bg, diff, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of RGB row ``src`` (3 w,) uint8 from
     ``bg`` (3 w,) uint8; ``diff`` (3 w,) uint8 scratch."""
     for e in range(diff.shape[0]):
-        diff[e] = abs(np.int16(src[e]) - np.int16(bg[e]))
+        a, b = src[e], bg[e]
+        diff[e] = max(a, b) - min(a, b)
     for x in range(out.shape[0]):
         out[x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
 
 
 @njit(cache=True)
-def max_diff_half(src, bg, out):  # pragma: no cover (compiled)
+def max_diff_half(src, bg, diff, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of every other pixel of ``src``
-    (3 W,) from ``bg`` (3 w,)."""
+    (3 W,) from ``bg`` (3 w,); ``diff`` (3 w,) uint8 scratch."""
     for x in range(out.shape[0]):
-        d0 = abs(np.int64(src[6 * x]) - np.int64(bg[3 * x]))
-        d1 = abs(np.int64(src[6 * x + 1]) - np.int64(bg[3 * x + 1]))
-        d2 = abs(np.int64(src[6 * x + 2]) - np.int64(bg[3 * x + 2]))
-        out[x] = max(max(d0, d1), d2)
+        for c in range(3):
+            a, b = src[6 * x + c], bg[3 * x + c]
+            diff[3 * x + c] = max(a, b) - min(a, b)
+    for x in range(out.shape[0]):
+        out[x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
 
 
 @njit(cache=True)

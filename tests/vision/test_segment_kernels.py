@@ -70,6 +70,24 @@ def test_gaussian_taps_are_opencvs_kernel_in_256ths():
     assert smoothing_taps(5, 0.0).size == 0
 
 
+@pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0), (9, 1.5)])
+def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma):
+    """Vertical then horizontal sums of the 1/256 taps (mirrored borders, as
+    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16."""
+    rng = np.random.default_rng(k)
+    img = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    bg = rng.integers(0, 256, (24, 3 * 32), dtype=np.uint8)
+    taps = smoothing_taps(k, sigma)
+    got = np.empty((24, 32), np.uint8)
+    box_difference(img.reshape(48, 3 * 64), bg, k, taps, got)
+    r, t = k // 2, taps.astype(np.int64)
+    p = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REFLECT_101).astype(np.int64)
+    vert = sum(t[j] * p[j : j + 48] for j in range(k))
+    smooth = (sum(t[j] * vert[:, j : j + 64] for j in range(k)) + 32768) >> 16
+    expect = np.abs(smooth[::2, ::2] - bg.reshape(24, 32, 3)).max(axis=2)
+    np.testing.assert_array_equal(got, expect)
+
+
 def test_gaussian_smoothing_reduces_noise_more_gently_than_the_box_at_an_edge():
     """On a noisy step edge the Gaussian leaves less noise than none and a steeper edge
     than the box filter of the same aperture."""

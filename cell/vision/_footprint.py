@@ -248,9 +248,9 @@ _EDGE_HI = np.array([edge_heights(k)[1] for k in KIND_NAMES])
 
 
 def warm_up() -> None:
-    """Load (or compile, on the very first run) every compiled kernel of kind fitting and
-    footprint description, on a made-up square blob, so a detector's first frame is as
-    fast as its others."""
+    """Load (or compile, on the very first run) every compiled kernel of kind fitting,
+    footprint description and a bolt's reference point, on a made-up square blob, so a
+    detector's first frame is as fast as its others."""
     t = np.linspace(0.0, 2 * np.pi, 40, endpoint=False)
     ring = np.stack([320 + 20 * np.cos(t), 240 + 20 * np.sin(t)], axis=1)
     normals = np.stack([np.cos(t), np.sin(t)], axis=1)
@@ -263,5 +263,5 @@ def warm_up() -> None:
         geo._distorted = distorted
         blob = Blob(ring, normals, [(0.5 * ring + 160, -normals)], (300, 220, 41, 41), False)
         fit_kinds([blob], geo, 0.5)
-        Footprints(geo, [blob], _MID).footprint(0)
+        bolt_origin(Footprints(geo, [blob], _MID).footprint(0))
         geo.area_mm2(blob)

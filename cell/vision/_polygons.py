@@ -204,15 +204,16 @@ def _by_x(px, py):  # pragma: no cover (compiled)
     only moves points within their bucket: linear in the points for an outline, whose
     x spread evenly, where ``np.argsort`` is n log n."""
     n = px.shape[0]
-    key = np.empty(n)
+    keys = np.empty((2, n))  # the keys, then the keys in order
+    key, sk = keys[0], keys[1]
+    work = np.zeros(3 * n + 1, np.int64)  # bucket starts, buckets, the order
+    start, bucket, order = work[: n + 1], work[n + 1 : 2 * n + 1], work[2 * n + 1 :]
     lo = hi = px[0] + 1e-9 * py[0]
     for j in range(n):
         k = px[j] + 1e-9 * py[j]
         key[j] = k
         lo = min(lo, k)
         hi = max(hi, k)
-    start = np.zeros(n + 1, np.int64)
-    bucket = np.empty(n, np.int64)
     scale = n / (hi - lo) if hi > lo else 0.0
     for j in range(n):
         f = (key[j] - lo) * scale  # monotone in the key, so the buckets are in order
@@ -221,8 +222,6 @@ def _by_x(px, py):  # pragma: no cover (compiled)
         start[b + 1] += 1
     for b in range(n):
         start[b + 1] += start[b]
-    order = np.empty(n, np.int64)
-    sk = np.empty(n)
     for j in range(n):
         q = start[bucket[j]]
         start[bucket[j]] = q + 1
@@ -244,8 +243,8 @@ def _hull(px, py):  # pragma: no cover (compiled)
     points) by Andrew's monotone chain: (x, y) of its vertices."""
     n = px.shape[0]
     order = _by_x(px, py)
-    hx = np.empty(2 * n + 1)
-    hy = np.empty(2 * n + 1)
+    hxy = np.empty((2, 2 * n + 1))
+    hx, hy = hxy[0], hxy[1]
     k = 0
     for j in range(n):  # lower hull
         x, y = px[order[j]], py[order[j]]
@@ -277,9 +276,8 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
     m = hx.shape[0]
     if m < 3:
         return 0.0, 0.0, 0.0, 0.0, 0.0
-    ex = np.empty(m)  # edge i: from vertex i to the next, and its length
-    ey = np.empty(m)
-    el = np.empty(m)
+    edges = np.empty((5, m))  # edge i: from vertex i to the next, its length, direction
+    ex, ey, el, ex1, ey1 = edges[0], edges[1], edges[2], edges[3], edges[4]
     area = total = re6 = im6 = 0.0
     for i in range(m):
         j = i + 1 if i + 1 < m else 0
@@ -288,7 +286,8 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
         length = math.sqrt(dx * dx + dy * dy)
         ex[i], ey[i], el[i] = dx, dy, length
         if length > 0.0:
-            u2 = complex(dx / length, dy / length) ** 2  # the direction's 6th power
+            ex1[i], ey1[i] = dx / length, dy / length
+            u2 = complex(ex1[i], ey1[i]) ** 2  # the direction's 6th power
             u6 = u2 * u2 * u2
             total += length
             re6 += length * u6.real
@@ -298,10 +297,9 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
     w_best = h_best = ang_best = 0.0
     ahead = across = behind = -1
     for i in range(m):
-        length = el[i]
-        if length <= 0.0:
+        if el[i] <= 0.0:
             continue
-        ux, uy = ex[i] / length, ey[i] / length
+        ux, uy = ex1[i], ey1[i]
         if ahead < 0:  # first edge: find the three extremes by a scan
             j = i + 1 if i + 1 < m else 0
             ahead = across = behind = j
@@ -376,8 +374,11 @@ def describe_one(pts, pstarts, row):  # pragma: no cover (compiled)
             cx += (pts[k, 0] - ox) * 1e3
             cy += (pts[k, 1] - oy) * 1e3
         cx, cy = cx / (e - s), cy / (e - s)
-    px = (pts[s:e, 0] - ox) * 1e3
-    py = (pts[s:e, 1] - oy) * 1e3
+    pxy = np.empty((2, e - s))  # the outline in mm around its first point
+    px, py = pxy[0], pxy[1]
+    for k in range(s, e):
+        px[k - s] = (pts[k, 0] - ox) * 1e3
+        py[k - s] = (pts[k, 1] - oy) * 1e3
     hx, hy = _hull(px, py)
     hull_area, w, hh, ang, facets = _hull_shape(hx, hy)
     if w < hh:

@@ -30,8 +30,8 @@ Pipeline (each step a textbook technique, each in its own module):
    (:mod:`cell.vision._part_material`, :mod:`cell.vision.material`); yaw per kind modulo
    its symmetry (a cut between touching parts is not an edge and does not count);
    position the footprint centroid on the table plane (for a bolt, a point fixed
-   relative to its two ends). A blob at the image border is reported ``partial`` with
-   kind ``unknown`` and no position.
+   relative to its two ends; :mod:`cell.vision._pose`). A blob at the image border is
+   reported ``partial`` with kind ``unknown`` and no position.
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """Compiled yaw and reference point of a footprint for its kind (numba).
 
-:func:`kind_yaw` is :func:`cell.vision.kind.footprint_yaw` for the nuts and the L
-bracket (the n-th circular harmonic of the outline's chord directions, Mardia & Jupp,
-*Directional Statistics*, 2000, ch. 3), :func:`bolt_point` the reference point of a bolt
+:func:`kind_yaw` is :func:`cell.vision.kind.footprint_yaw` (the nuts and the L bracket:
+the n-th circular harmonic of the outline's chord directions, Mardia & Jupp,
+*Directional Statistics*, 2000, ch. 3; the bolt: second moments, with the arithmetic of
+``cv2.moments`` on the outline in float32 mm), :func:`bolt_point` the reference point of a bolt
 (:func:`cell.vision._footprint.bolt_origin`), each in one call instead of a dozen numpy
 operations. The outline's projections on a direction are ``outline @ u`` as numpy's
 matrix product computes them (OpenBLAS: ``fma(x, u_x, y * u_y)``), so the results equal
@@ -20,7 +21,7 @@ from numba.extending import intrinsic
 
 __all__: list[str] = []  # private to cell.vision
 
-HEX_NUT, SQUARE_NUT, L_BRACKET, RECTANGLE = 0, 1, 2, 3  # kind codes of kind_yaw
+HEX_NUT, SQUARE_NUT, L_BRACKET, BOLT, RECTANGLE = 0, 1, 2, 3, 4  # kind codes of kind_yaw
 CUT_GUARD = 6  # outline points next to a cut left out of the yaw (the contact's notch)
 _L_TURN = math.radians(2.0)  # see _bracket_yaw
 _BOLT_END_OFFSET = 0.0014  # body origin from the middle of the bolt's ends, towards the head
@@ -110,16 +111,56 @@ def _bracket_yaw(p, cx, cy, rect_angle):  # pragma: no cover (compiled)
 def kind_yaw(p, cx, cy, rect_angle, code, n, cut):  # pragma: no cover (compiled)
     """Yaw (rad, in [0, 2*pi/n)) of a footprint (outline ``p`` (N, 2), centroid, minimum
     rectangle's angle) for a kind of n-fold symmetry: ``code`` HEX_NUT (a corner on +x),
-    SQUARE_NUT (flats facing +x), L_BRACKET or RECTANGLE (the rectangle's long side)."""
+    SQUARE_NUT (flats facing +x), L_BRACKET, BOLT (its long axis) or RECTANGLE (the
+    rectangle's long side)."""
     if code == HEX_NUT:
         yaw = _nut_angle(p, 6, 1.0, cut) - math.pi / 6
     elif code == SQUARE_NUT:
         yaw = _nut_angle(p, 4, 2.0, cut)
     elif code == L_BRACKET:
         yaw = _bracket_yaw(p, cx, cy, rect_angle)
+    elif code == BOLT:
+        yaw = second_moment_angle(p)
     else:
         yaw = rect_angle
     return yaw % (2 * math.pi / n)
+
+
+@njit(cache=True)
+def second_moment_angle(p):  # pragma: no cover (compiled)
+    """Direction (rad) of the principal axis of the polygon ``p`` (N, 2, metres):
+    0.5 * atan2(2 mu11, mu20 - mu02) of its moments, computed as ``cv2.moments`` does
+    for a float32 contour (OpenCV's ``contourMoments`` and ``completeMomentState``, Green's
+    theorem) on the outline in millimetres around its first point, rounded to float32."""
+    n = p.shape[0]
+    x0, y0 = p[0, 0], p[0, 1]
+    a00 = a10 = a01 = a20 = a11 = a02 = 0.0
+    xi_1 = np.float64(np.float32((p[n - 1, 0] - x0) * 1e3))
+    yi_1 = np.float64(np.float32((p[n - 1, 1] - y0) * 1e3))
+    for i in range(n):
+        xi = np.float64(np.float32((p[i, 0] - x0) * 1e3))
+        yi = np.float64(np.float32((p[i, 1] - y0) * 1e3))
+        dxy = xi_1 * yi - xi * yi_1
+        xii_1 = xi_1 + xi
+        yii_1 = yi_1 + yi
+        a00 += dxy
+        a10 += dxy * xii_1
+        a01 += dxy * yii_1
+        a20 += dxy * (xi_1 * xii_1 + xi * xi)
+        a11 += dxy * (xi_1 * (yii_1 + yi_1) + xi * (yii_1 + yi))
+        a02 += dxy * (yi_1 * yii_1 + yi * yi)
+        xi_1, yi_1 = xi, yi
+    m00 = m10 = m01 = m20 = m11 = m02 = 0.0
+    if abs(a00) > 1.1920928955078125e-07:  # FLT_EPSILON
+        sign = 1.0 if a00 > 0 else -1.0
+        m00, m10, m01 = a00 * (sign * 0.5), a10 * (sign * (1 / 6)), a01 * (sign * (1 / 6))
+        m20, m11, m02 = a20 * (sign * (1 / 12)), a11 * (sign * (1 / 24)), a02 * (sign * (1 / 12))
+    cx = cy = 0.0
+    if abs(m00) > 2.220446049250313e-16:  # DBL_EPSILON
+        inv = 1.0 / m00
+        cx, cy = m10 * inv, m01 * inv
+    mu20, mu11, mu02 = m20 - m10 * cx, m11 - m10 * cy, m02 - m01 * cy
+    return 0.5 * math.atan2(2 * mu11, mu20 - mu02)
 
 
 @njit(cache=True)

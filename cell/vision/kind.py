@@ -20,14 +20,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
 from cell.vision._kindfit import score_rows
 from cell.vision._polygons import describe_polygons
-from cell.vision._pose import HEX_NUT, L_BRACKET, RECTANGLE, SQUARE_NUT, kind_yaw
+from cell.vision._pose import BOLT, HEX_NUT, L_BRACKET, RECTANGLE, SQUARE_NUT, kind_yaw
 
 __all__ = [
     "Footprint",
@@ -227,12 +226,7 @@ def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:
     return names[best], float(lik[best] / lik.sum()), float(s[best])
 
 
-def _second_moment_angle(outline: np.ndarray) -> float:
-    m = cv2.moments(((outline - outline[0]) * 1e3).astype(np.float32))
-    return 0.5 * math.atan2(2 * m["mu11"], m["mu20"] - m["mu02"])
-
-
-_YAW_CODES = {"hex_nut": HEX_NUT, "square_nut": SQUARE_NUT, "l_bracket": L_BRACKET}
+_YAW_CODES = {"hex_nut": HEX_NUT, "square_nut": SQUARE_NUT, "l_bracket": L_BRACKET, "bolt": BOLT}
 
 
 def outline_yaw(outline: np.ndarray, centroid_x: float, centroid_y: float, rect_angle: float,
@@ -242,8 +236,6 @@ def outline_yaw(outline: np.ndarray, centroid_x: float, centroid_y: float, rect_
     n = KINDS[kind].symmetry if kind in KINDS else 0
     if n == 0:
         return 0.0
-    if kind == "bolt":
-        return float(_second_moment_angle(outline) % (2 * math.pi / n))
     return kind_yaw(np.ascontiguousarray(outline, dtype=np.float64), centroid_x, centroid_y,
                     rect_angle, _YAW_CODES.get(kind, RECTANGLE), n, cut)
 

@@ -1,16 +1,17 @@
-"""The compiled yaw and bolt reference point (cell.vision._pose) against their numpy
-formulation, bit for bit, on the catalogue's outlines turned, shifted and jittered."""
+"""The compiled yaw and bolt reference point (cell.vision._pose) against their numpy and
+OpenCV formulation, bit for bit, on the catalogue's outlines turned, shifted and jittered."""
 
 from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cell.vision._footprint import bolt_origin
-from cell.vision._pose import CUT_GUARD, flat_angle
+from cell.vision._pose import CUT_GUARD, flat_angle, second_moment_angle
 from cell.vision.kind import Footprint, footprint, footprint_yaw
 from tests.vision.test_kind import OUTLINES, _turn
 
@@ -33,8 +34,15 @@ def _bracket_yaw(fp: Footprint) -> float:
     return float(math.atan2(long_dir[1], long_dir[0]))
 
 
+def _second_moment_angle(outline: np.ndarray) -> float:
+    m = cv2.moments(((outline - outline[0]) * 1e3).astype(np.float32))
+    return 0.5 * math.atan2(2 * m["mu11"], m["mu20"] - m["mu02"])
+
+
 def _yaw(fp: Footprint, kind: str, cut: int) -> float:
-    """footprint_yaw as numpy computed it."""
+    """footprint_yaw as numpy (and OpenCV) computed it."""
+    if kind == "bolt":
+        return float(_second_moment_angle(fp.outline) % math.pi)
     if kind == "hex_nut":
         yaw = _flat(fp.outline, 6, 1.0, cut) - math.pi / 6
         return float(yaw % (2 * math.pi / 6))
@@ -66,10 +74,10 @@ pose = (st.floats(0, 2 * math.pi), st.floats(-0.2, 0.2), st.floats(-0.2, 0.2),
 
 
 @settings(max_examples=120, deadline=None)
-@given(st.sampled_from(["hex_nut", "square_nut", "l_bracket"]), *pose, st.integers(0, 30))
+@given(st.sampled_from(["hex_nut", "square_nut", "l_bracket", "bolt"]), *pose, st.integers(0, 30))
 def test_yaw_is_the_numpy_formulation(kind, yaw, dx, dy, seed, cut):
     fp = footprint(_jittered(kind, yaw, dx, dy, seed))
-    cut = 0 if kind == "l_bracket" else cut
+    cut = cut if kind in ("hex_nut", "square_nut") else 0
     assert footprint_yaw(fp, kind, cut=cut) == _yaw(fp, kind, cut)
 
 
@@ -78,3 +86,11 @@ def test_yaw_is_the_numpy_formulation(kind, yaw, dx, dy, seed, cut):
 def test_bolt_origin_is_the_numpy_formulation(yaw, dx, dy, seed):
     fp = footprint(_jittered("bolt", yaw, dx, dy, seed))
     np.testing.assert_array_equal(bolt_origin(fp), _bolt_origin(fp))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), min_size=3,
+                max_size=200), st.floats(-0.5, 0.5), st.floats(-0.5, 0.5))
+def test_second_moments_are_opencvs(pts, dx, dy):
+    p = np.array(pts) + (dx, dy)
+    assert second_moment_angle(p) == _second_moment_angle(p)

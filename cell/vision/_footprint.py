@@ -11,9 +11,7 @@ only for the best one or two kinds, with their own edge heights.
 
 from __future__ import annotations
 
-import functools
-import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -23,6 +21,7 @@ from cell.catalogue import KINDS
 from cell.vision._blob import Blob
 from cell.vision._kindfit import fit_blobs
 from cell.vision._polygons import plane_footprints, plane_rays, polygon_area
+from cell.vision._pose import bolt_point
 from cell.vision.kind import (
     KIND_NAMES,
     MAX_FIT,
@@ -43,19 +42,30 @@ _REFINE_GAP = 12.0  # a runner-up kind this much worse at mid height is not refi
 
 @dataclass
 class Fit:
-    """The footprint of the kind chosen for a blob (mid height if none), built on first
-    use (``source``: a function that builds it), the blob's pixel centroid (u, v), and how
-    many of the outline's last points are a cut from a touching part, not an edge."""
+    """The footprint of the kind chosen for a blob (mid height if none): its descriptor
+    ``row`` (see :class:`~cell.vision._polygons.PolygonSet`), its points ``xy`` (outline,
+    then holes, each polygon ending at the cumulative ``ends``); the blob's pixel centroid
+    (u, v), and how many of the outline's last points are a cut from a touching part, not
+    an edge. The :class:`~cell.vision.kind.Footprint` (``fp``) is built on first use."""
 
-    source: object  # Footprint | None, or a function returning one
+    row: np.ndarray
+    xy: np.ndarray
+    ends: tuple[int, ...]
     centroid_px: tuple[float, float] = (0.0, 0.0)
     cut: int = 0
+    _fp: Footprint | None = field(default=None, repr=False)
 
     @property
-    def fp(self) -> Footprint | None:
-        if callable(self.source):
-            self.source = self.source()
-        return self.source
+    def outline(self) -> np.ndarray:
+        return self.xy[: self.ends[0]]
+
+    @property
+    def fp(self) -> Footprint:
+        if self._fp is None:
+            e = self.ends
+            holes = tuple(self.xy[e[j] : e[j + 1]] for j in range(len(e) - 1))
+            self._fp = footprint_of(self.row, self.outline, holes)
+        return self._fp
 
 
 class Geometry:
@@ -137,9 +147,14 @@ class Footprints:
 
     def footprint(self, i: int) -> Footprint:
         """Blob ``i``'s footprint."""
+        return self.fit(i).fp
+
+    def fit(self, i: int) -> Fit:
+        """Blob ``i``'s footprint as a :class:`Fit`."""
         p, st = self.outlines[i], self.starts
-        holes = tuple(self.xy[st[q] : st[q + 1]] for q in range(p + 1, p + 1 + self.holes[i]))
-        return footprint_of(self.d.table[i], self.xy[st[p] : st[p + 1]], holes)
+        s = int(st[p])
+        ends = tuple(int(st[q]) - s for q in range(p + 1, p + 2 + self.holes[i]))
+        return Fit(self.d.table[i], self.xy[s : s + ends[-1]], ends)
 
 
 def _concatenated(blobs: list[Blob]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -184,13 +199,13 @@ def fit_gathered(geo: Geometry, rays: np.ndarray, away: np.ndarray, idx: np.ndar
     fit_blobs(rays, away, idx, splits, counts, *fit_arguments(geo, min_confidence), xy,
               starts, table, kind, conf, fit)
     out = []
+    ends = starts.tolist()
     p = 0
     for i, (k, c, f) in enumerate(zip(kind.tolist(), conf.tolist(), fit.tolist(), strict=True)):
-        m = counts[i]
-        outline = xy[starts[p] : starts[p + 1]]
-        holes = tuple(xy[starts[q] : starts[q + 1]] for q in range(p + 1, p + m))
+        m = int(counts[i])
+        s = ends[p]
+        res = Fit(table[i], xy[s : ends[p + m]], tuple(e - s for e in ends[p + 1 : p + m + 1]))
         p += m
-        res = Fit(functools.partial(footprint_of, table[i], outline, holes))
         out.append(("unknown" if k < 0 else KIND_NAMES[k], c, f, res))
     return out
 
@@ -206,9 +221,7 @@ def fit_arguments(geo: Geometry, min_confidence: float) -> tuple:
 def fit_of(xy: np.ndarray, row: np.ndarray, splits: np.ndarray) -> Fit:
     """The ``Fit`` of one footprint from its points ``xy`` (outline, then holes, ending at
     the cumulative ``splits``) and its descriptor ``row`` (built when first read)."""
-    outline = xy[: splits[0]]
-    holes = tuple(xy[splits[j] : splits[j + 1]] for j in range(len(splits) - 1))
-    return Fit(functools.partial(footprint_of, row, outline, holes))
+    return Fit(row, xy, tuple(splits.tolist()))
 
 
 def edge_heights(kind: str) -> tuple[float, float]:
@@ -219,23 +232,14 @@ def edge_heights(kind: str) -> tuple[float, float]:
     return 0.0, h
 
 
-_BOLT_END_OFFSET = 0.0014  # body origin from the middle of the bolt's ends, towards the head
-
-
 def bolt_origin(fp: Footprint) -> np.ndarray:
     """A bolt's reference point: on its axis, 1.4 mm from the middle of its two ends
     towards the head (cell.sim.parts: ends at -20.6 and +23.4 mm). The area centroid
-    would move with the head's roll (10 or 11.5 mm wide); the ends do not."""
-    axis = np.array([math.cos(fp.rect_angle), math.sin(fp.rect_angle)])
-    rel = fp.outline - fp.centroid
-    s = rel @ axis
-    t = rel @ np.array([-axis[1], axis[0]])
-    s_max, s_min = float(s.max()), float(s.min())
-    w_max = float(np.abs(t[s > s_max - 0.004]).max())
-    w_min = float(np.abs(t[s < s_min + 0.004]).max())
-    to_head = 1.0 if w_max > w_min else -1.0
-    mid = 0.5 * (s_max + s_min) + to_head * _BOLT_END_OFFSET
-    return fp.centroid + mid * axis
+    would move with the head's roll (10 or 11.5 mm wide); the ends do not. The ends are
+    the outline's extremes along the rectangle's long side, the head the wider of the
+    two 4 mm strips there (compiled: :func:`cell.vision._pose.bolt_point`)."""
+    return np.array(bolt_point(np.ascontiguousarray(fp.outline, dtype=np.float64),
+                               fp.centroid[0], fp.centroid[1], fp.rect_angle))
 
 
 _BOLT = KIND_NAMES.index("bolt")
@@ -244,9 +248,9 @@ _EDGE_HI = np.array([edge_heights(k)[1] for k in KIND_NAMES])
 
 
 def warm_up() -> None:
-    """Load (or compile, on the very first run) every compiled kernel of kind fitting and
-    footprint description, on a made-up square blob, so a detector's first frame is as
-    fast as its others."""
+    """Load (or compile, on the very first run) every compiled kernel of kind fitting,
+    footprint description and a bolt's reference point, on a made-up square blob, so a
+    detector's first frame is as fast as its others."""
     t = np.linspace(0.0, 2 * np.pi, 40, endpoint=False)
     ring = np.stack([320 + 20 * np.cos(t), 240 + 20 * np.sin(t)], axis=1)
     normals = np.stack([np.cos(t), np.sin(t)], axis=1)
@@ -259,5 +263,5 @@ def warm_up() -> None:
         geo._distorted = distorted
         blob = Blob(ring, normals, [(0.5 * ring + 160, -normals)], (300, 220, 41, 41), False)
         fit_kinds([blob], geo, 0.5)
-        Footprints(geo, [blob], _MID).footprint(0)
+        bolt_origin(Footprints(geo, [blob], _MID).footprint(0))
         geo.area_mm2(blob)

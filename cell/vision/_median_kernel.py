@@ -27,9 +27,9 @@ def median15(small, bg):  # pragma: no cover (compiled)
     fine = np.empty((256, wp), np.uint8)  # column histograms (value, column) ...
     coarse = np.empty((16, wp), np.uint8)  # ... and by 16 values
     hist = np.zeros(256, np.int64)
-    med = np.empty(w, np.int64)
-    below = np.empty(w, np.int64)  # count < median
-    upto = np.empty(w, np.int64)  # count <= median
+    med = np.empty(w, np.int16)  # (16-bit: the counts' updates vectorize 16 wide)
+    below = np.empty(w, np.int16)  # count < median
+    upto = np.empty(w, np.int16)  # count <= median
     cols = np.empty(wp, np.int64)
     for j in range(wp):
         cols[j] = border(j - 7, w)
@@ -39,6 +39,18 @@ def median15(small, bg):  # pragma: no cover (compiled)
             for j in range(wp):
                 plane[i, j] = row[cols[j], c]
         _median_plane(plane, bg, c, fine, coarse, hist, med, below, upto)
+
+
+@njit(cache=True)
+def _counts(out_row, in_row, med, below, upto):  # pragma: no cover (compiled)
+    """Move the counts of values below (``below``) and up to (``upto``) each column's
+    median ``med`` from the window rows' leaving row ``out_row`` to the entering
+    ``in_row`` (15 columns from x each)."""
+    for d in range(15):
+        for x in range(med.shape[0]):
+            m, a, b = med[x], out_row[x + d], in_row[x + d]
+            below[x] += (b < m) - (a < m)
+            upto[x] += (b <= m) - (a <= m)
 
 
 @njit(cache=True)
@@ -82,11 +94,7 @@ def _median_plane(q, bg, c, fine, coarse, hist, med, below, upto):  # pragma: no
         bg[0, x, c] = m
     for y in range(1, h):
         out_row, in_row = q[y - 1], q[y + 14]
-        for d in range(15):
-            for x in range(w):
-                m, a, b = med[x], out_row[x + d], in_row[x + d]
-                below[x] += (b < m) - (a < m)
-                upto[x] += (b <= m) - (a <= m)
+        _counts(out_row, in_row, med, below, upto)
         for j in range(wp):
             a, b = out_row[j], in_row[j]
             if a != b:

@@ -28,7 +28,7 @@ from cell.vision._segment_kernel import (
     max_diff,
     upper_median,
 )
-from cell.vision._smooth_kernel import box_row, smooth_column, smooth_row
+from cell.vision._smooth_kernel import box_row, horizontal, vertical
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -96,7 +96,9 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
     acc = np.empty(wmax * 3, np.uint16)
     colf = np.empty((wmax + 2 * pad) * 3, np.uint16)  # (Gaussian smoothing)
-    accf = np.empty(wmax * 3, np.uint32)
+    accf = np.empty(wmax * 3, np.int32)
+    tp = taps.astype(np.int32)
+    lines = np.empty(max(k, 1), np.int64)  # the window rows under the filter
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
@@ -117,9 +119,9 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
             m = 3 * (w + k - 1)
             for y in range(h):
                 for j in range(k):
-                    smooth_column(win[y + pad - r + j, 3 * (pad - r) : 3 * (pad - r) + m],
-                                  taps[j], j == 0, colf[:m])
-                smooth_row(colf, taps, accf, src[y, : 3 * w])
+                    lines[j] = y + pad - r + j
+                vertical(win, lines, 3 * (pad - r), tp, colf[:m])
+                horizontal(colf[:m], tp, accf, src[y, : 3 * w])
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)

@@ -23,7 +23,6 @@ from cell.vision._material_kernel import (
     N_STATS,
     SUPPORT,
     first_reaching,
-    metal_prior,
     patch_statistics,
     statistics,
 )
@@ -247,4 +246,5 @@ def warm_up() -> None:
     frame_statistics(img, fg, np.array([[10, 8, 30, 30]], np.int64), roi.ravel(), 250)
     patch_statistics(img[:20, :20].copy(), np.ascontiguousarray(roi[5:25, 5:25]))
     noise_sigma(img)
-    metal_prior(np.full((1, 3), 0.5), np.eye(3), np.ones(3, np.bool_), 0.01)
+    materials_from_statistics(np.ones((1, N_STATS)), np.ones((1, 3)), belt_rgb=(0.5, 0.5, 0.5),
+                              noise_sigma=1.0, grain_metal=0.05, grain_z_min=3.0, albedo_sigma=0.1)

@@ -7,7 +7,7 @@ hole points of all footprints are concatenated with their rays, and one compiled
 * net area, outline area and centroid from polygon moments (Green's theorem; the
   quantities ``cv2.moments`` gives for a contour);
 * the convex hull of the outline (Andrew's monotone chain, *Information Processing
-  Letters* 9, 1979) and its area;
+  Letters* 9, 1979, on the points bucket-sorted by x) and its area;
 * the minimum-area enclosing rectangle: one of its sides lies on a hull edge (Freeman &
   Shapira, *CACM* 18, 1975), so every hull edge is tried (the rectangle
   ``cv2.minAreaRect`` finds by rotating calipers);
@@ -194,30 +194,75 @@ def _moments(pts, s, e, ox, oy):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _hull(px, py):  # pragma: no cover (compiled)
-    """Convex hull (counter-clockwise, no collinear points) by Andrew's monotone chain."""
+def _by_x(px, py):  # pragma: no cover (compiled)
+    """Indices of the points in increasing order of the key ``px + 1e-9 * py`` (by x,
+    then y: the key's y term, points lying within metres, in mm, is far below any
+    difference of x between distinct points and far above float64's resolution of x).
+
+    A bucket sort (one bucket per point, linear in the key's range: the order of
+    ``np.argsort``, up to the order of equal keys), finished by an insertion sort that
+    only moves points within their bucket: linear in the points for an outline, whose
+    x spread evenly, where ``np.argsort`` is n log n."""
     n = px.shape[0]
-    # by x, then y: the key's y term (points lie within metres, in mm) is far below any
-    # difference of x between distinct points and far above float64's resolution of x
-    order = np.argsort(px + 1e-9 * py)
-    h = np.empty(2 * n + 1, np.int64)
+    keys = np.empty((2, n))  # the keys, then the keys in order
+    key, sk = keys[0], keys[1]
+    work = np.zeros(3 * n + 1, np.int64)  # bucket starts, buckets, the order
+    start, bucket, order = work[: n + 1], work[n + 1 : 2 * n + 1], work[2 * n + 1 :]
+    lo = hi = px[0] + 1e-9 * py[0]
+    for j in range(n):
+        k = px[j] + 1e-9 * py[j]
+        key[j] = k
+        lo = min(lo, k)
+        hi = max(hi, k)
+    scale = n / (hi - lo) if hi > lo else 0.0
+    for j in range(n):
+        f = (key[j] - lo) * scale  # monotone in the key, so the buckets are in order
+        b = int(f) if f < n - 1 else n - 1
+        bucket[j] = b
+        start[b + 1] += 1
+    for b in range(n):
+        start[b + 1] += start[b]
+    for j in range(n):
+        q = start[bucket[j]]
+        start[bucket[j]] = q + 1
+        order[q] = j
+        sk[q] = key[j]
+    for j in range(1, n):
+        i, k = order[j], sk[j]
+        q = j - 1
+        while q >= 0 and sk[q] > k:
+            order[q + 1], sk[q + 1] = order[q], sk[q]
+            q -= 1
+        order[q + 1], sk[q + 1] = i, k
+    return order
+
+
+@njit(cache=True)
+def _hull(px, py):  # pragma: no cover (compiled)
+    """Convex hull (counter-clockwise from the point of least x, then y; no collinear
+    points) by Andrew's monotone chain: (x, y) of its vertices."""
+    n = px.shape[0]
+    order = _by_x(px, py)
+    hxy = np.empty((2, 2 * n + 1))
+    hx, hy = hxy[0], hxy[1]
     k = 0
     for j in range(n):  # lower hull
-        i = order[j]
-        while k >= 2 and ((px[h[k - 1]] - px[h[k - 2]]) * (py[i] - py[h[k - 2]])
-                          - (py[h[k - 1]] - py[h[k - 2]]) * (px[i] - px[h[k - 2]])) <= 0:
+        x, y = px[order[j]], py[order[j]]
+        while k >= 2 and ((hx[k - 1] - hx[k - 2]) * (y - hy[k - 2])
+                          - (hy[k - 1] - hy[k - 2]) * (x - hx[k - 2])) <= 0:
             k -= 1
-        h[k] = i
+        hx[k], hy[k] = x, y
         k += 1
     lower = k + 1
     for j in range(n - 2, -1, -1):  # upper hull
-        i = order[j]
-        while k >= lower and ((px[h[k - 1]] - px[h[k - 2]]) * (py[i] - py[h[k - 2]])
-                              - (py[h[k - 1]] - py[h[k - 2]]) * (px[i] - px[h[k - 2]])) <= 0:
+        x, y = px[order[j]], py[order[j]]
+        while k >= lower and ((hx[k - 1] - hx[k - 2]) * (y - hy[k - 2])
+                              - (hy[k - 1] - hy[k - 2]) * (x - hx[k - 2])) <= 0:
             k -= 1
-        h[k] = i
+        hx[k], hy[k] = x, y
         k += 1
-    return h[: max(k - 1, 1)]
+    m = max(k - 1, 1)
+    return hx[:m], hy[:m]
 
 
 @njit(cache=True)
@@ -231,14 +276,18 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
     m = hx.shape[0]
     if m < 3:
         return 0.0, 0.0, 0.0, 0.0, 0.0
+    edges = np.empty((5, m))  # edge i: from vertex i to the next, its length, direction
+    ex, ey, el, ex1, ey1 = edges[0], edges[1], edges[2], edges[3], edges[4]
     area = total = re6 = im6 = 0.0
     for i in range(m):
         j = i + 1 if i + 1 < m else 0
         dx, dy = hx[j] - hx[i], hy[j] - hy[i]
         area += hx[i] * hy[j] - hx[j] * hy[i]
         length = math.sqrt(dx * dx + dy * dy)
+        ex[i], ey[i], el[i] = dx, dy, length
         if length > 0.0:
-            u2 = complex(dx / length, dy / length) ** 2  # the direction's 6th power
+            ex1[i], ey1[i] = dx / length, dy / length
+            u2 = complex(ex1[i], ey1[i]) ** 2  # the direction's 6th power
             u6 = u2 * u2 * u2
             total += length
             re6 += length * u6.real
@@ -248,40 +297,37 @@ def _hull_shape(hx, hy):  # pragma: no cover (compiled)
     w_best = h_best = ang_best = 0.0
     ahead = across = behind = -1
     for i in range(m):
-        j = i + 1 if i + 1 < m else 0
-        dx, dy = hx[j] - hx[i], hy[j] - hy[i]
-        length = math.sqrt(dx * dx + dy * dy)
-        if length <= 0.0:
+        if el[i] <= 0.0:
             continue
-        ux, uy = dx / length, dy / length
+        ux, uy = ex1[i], ey1[i]
         if ahead < 0:  # first edge: find the three extremes by a scan
+            j = i + 1 if i + 1 < m else 0
             ahead = across = behind = j
+            s_ahead = s_behind = (hx[j] - hx[i]) * ux + (hy[j] - hy[i]) * uy
+            t_across = -(hx[j] - hx[i]) * uy + (hy[j] - hy[i]) * ux
             for q in range(m):
                 s = (hx[q] - hx[i]) * ux + (hy[q] - hy[i]) * uy
                 t = -(hx[q] - hx[i]) * uy + (hy[q] - hy[i]) * ux
-                if s > (hx[ahead] - hx[i]) * ux + (hy[ahead] - hy[i]) * uy:
-                    ahead = q
-                if t > -(hx[across] - hx[i]) * uy + (hy[across] - hy[i]) * ux:
-                    across = q
-                if s < (hx[behind] - hx[i]) * ux + (hy[behind] - hy[i]) * uy:
-                    behind = q
-        else:
-            for _ in range(m):  # each pointer moves forward while that improves it
-                nx = ahead + 1 if ahead + 1 < m else 0
-                if (hx[nx] - hx[ahead]) * ux + (hy[nx] - hy[ahead]) * uy > 0:
-                    ahead = nx
+                if s > s_ahead:
+                    ahead, s_ahead = q, s
+                if t > t_across:
+                    across, t_across = q, t
+                if s < s_behind:
+                    behind, s_behind = q, s
+        else:  # each pointer moves forward (along its edge) while that improves it
+            for _ in range(m):
+                if ex[ahead] * ux + ey[ahead] * uy > 0:
+                    ahead = ahead + 1 if ahead + 1 < m else 0
                 else:
                     break
             for _ in range(m):
-                nx = across + 1 if across + 1 < m else 0
-                if -(hx[nx] - hx[across]) * uy + (hy[nx] - hy[across]) * ux > 0:
-                    across = nx
+                if -ex[across] * uy + ey[across] * ux > 0:
+                    across = across + 1 if across + 1 < m else 0
                 else:
                     break
             for _ in range(m):
-                nx = behind + 1 if behind + 1 < m else 0
-                if (hx[nx] - hx[behind]) * ux + (hy[nx] - hy[behind]) * uy < 0:
-                    behind = nx
+                if ex[behind] * ux + ey[behind] * uy < 0:
+                    behind = behind + 1 if behind + 1 < m else 0
                 else:
                     break
         w = ((hx[ahead] - hx[behind]) * ux + (hy[ahead] - hy[behind]) * uy)
@@ -328,10 +374,13 @@ def describe_one(pts, pstarts, row):  # pragma: no cover (compiled)
             cx += (pts[k, 0] - ox) * 1e3
             cy += (pts[k, 1] - oy) * 1e3
         cx, cy = cx / (e - s), cy / (e - s)
-    px = (pts[s:e, 0] - ox) * 1e3
-    py = (pts[s:e, 1] - oy) * 1e3
-    h = _hull(px, py)
-    hull_area, w, hh, ang, facets = _hull_shape(px[h], py[h])
+    pxy = np.empty((2, e - s))  # the outline in mm around its first point
+    px, py = pxy[0], pxy[1]
+    for k in range(s, e):
+        px[k - s] = (pts[k, 0] - ox) * 1e3
+        py[k - s] = (pts[k, 1] - oy) * 1e3
+    hx, hy = _hull(px, py)
+    hull_area, w, hh, ang, facets = _hull_shape(hx, hy)
     if w < hh:
         w, hh, ang = hh, w, ang + math.pi / 2
     row[_AREA] = max(net, 0.0) * 1e-6

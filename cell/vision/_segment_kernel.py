@@ -33,7 +33,8 @@ def upscale_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
     pixels, for the first ``dst`` output pixels (the edge repeated beyond 8 src):
     position (d + 0.5) / 8 - 0.5 (float32), weights rounded (x 2048). Columns
     (``clamp``) take the edge pixel alone beyond the first and last centres; rows keep
-    their weights and repeat the edge row (OpenCV's resize does both)."""
+    their weights and repeat the edge row (OpenCV's resize does both). At scale 8 the
+    weights are (2 i + 1) 128 (f = (2 i + 1) / 16) or 0 and 2048: multiples of 128."""
     f = ((np.arange(dst) + 0.5) / 8 - 0.5).astype(np.float32)
     s = np.floor(f).astype(np.int64)
     f = f - s.astype(np.float32)
@@ -47,6 +48,7 @@ def upscale_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
     table[1] = np.clip(s + 1, 0, src - 1)
     table[2] = np.rint((np.float32(1) - f) * np.float32(_ONE))
     table[3] = np.rint(f * np.float32(_ONE))
+    assert not (table[2:] % 128).any()  # (what lerp_rows relies on)
     return table
 
 
@@ -61,26 +63,30 @@ def border(p, n):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def lerp_rows(q0, q1, b0, b1, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: two rows of horizontally interpolated values (x 2048, shifted
-    right by 4: ``q0``, ``q1`` (n,) float32, integers) combined with row weights ``b0``,
-    ``b1`` as ``cv2.resize``'s vector path rounds them: the high halves of the 16-bit
-    products, then (sum + 2) >> 2, saturated. (Exact in float64: products < 2^27.)"""
-    f0, f1 = b0 / 65536.0, b1 / 65536.0
+def lerp_rows(u0, u1, b0, b1, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: two rows of horizontally interpolated values ``u0``, ``u1``
+    (n,) float32 (from :func:`interpolate_x`) combined with row weights ``b0``, ``b1``
+    as ``cv2.resize``'s vector path rounds them: the high halves of the 16-bit products
+    of q = 8 u (its horizontal values x 2048, shifted right by 4) and b, then
+    (sum + 2) >> 2, saturated. The weights are multiples of 128 (:func:`upscale_axis`),
+    so (q b) >> 16 = floor(u (b / 8192)) with u b / 8192 < 2^10 a multiple of 1/64:
+    exact in float32."""
+    f0, f1 = np.float32(b0 / 8192), np.float32(b1 / 8192)
     for e in range(out.shape[0]):
-        v0, v1 = np.float64(q0[e]), np.float64(q1[e])
-        out[e] = min((np.floor(f0 * v0) + np.floor(f1 * v1) + 2.0) * 0.25, 255.0)
+        v = (np.floor(u0[e] * f0) + np.floor(u1[e] * f1) + np.float32(2)) * np.float32(0.25)
+        out[e] = min(v, np.float32(255))
 
 
 @njit(cache=True)
 def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled)
     """``out`` (3 n,) float32: small row ``small`` (ws, 3) uint8 interpolated at n
-    columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), see
-    :func:`upscale_axis`), x 2048 and shifted right by 4 (for :func:`lerp_rows`)."""
+    columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), multiples
+    of 128, see :func:`upscale_axis`), x 2048 and shifted right by 7 (exact; at most
+    16 x 255), for :func:`lerp_rows`."""
     for x in range(j0s.shape[0]):
         j0, j1, a0, a1 = j0s[x], j1s[x], a0s[x], a1s[x]
         for c in range(3):
-            out[3 * x + c] = (np.int64(small[j0, c]) * a0 + np.int64(small[j1, c]) * a1) >> 4
+            out[3 * x + c] = (np.int64(small[j0, c]) * a0 + np.int64(small[j1, c]) * a1) >> 7
 
 
 @njit(cache=True)
@@ -117,9 +123,10 @@ def difference(img, bgh, sample, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference of every other pixel of ``img``
     (H, 3 W) uint8 (RGB rows) from ``bgh`` (h, 3 w), on rows 2, 6, 10, ... (those
     :func:`median_mad` reads) when ``sample``, else on all the others."""
+    diff = np.empty(bgh.shape[1], np.uint8)
     for y in range(dmax.shape[0]):
         if (y % 4 == 2) == sample:
-            max_diff_half(img[2 * y], bgh[y], dmax[y])
+            max_diff_half(img[2 * y], bgh[y], diff, dmax[y])
 
 
 @njit(cache=True)
@@ -127,20 +134,22 @@ def max_diff(src, bg, diff, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of RGB row ``src`` (3 w,) uint8 from
     ``bg`` (3 w,) uint8; ``diff`` (3 w,) uint8 scratch."""
     for e in range(diff.shape[0]):
-        diff[e] = abs(np.int16(src[e]) - np.int16(bg[e]))
+        a, b = src[e], bg[e]
+        diff[e] = max(a, b) - min(a, b)
     for x in range(out.shape[0]):
         out[x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
 
 
 @njit(cache=True)
-def max_diff_half(src, bg, out):  # pragma: no cover (compiled)
+def max_diff_half(src, bg, diff, out):  # pragma: no cover (compiled)
     """``out`` (w,): the largest channel difference of every other pixel of ``src``
-    (3 W,) from ``bg`` (3 w,)."""
+    (3 W,) from ``bg`` (3 w,); ``diff`` (3 w,) uint8 scratch."""
     for x in range(out.shape[0]):
-        d0 = abs(np.int64(src[6 * x]) - np.int64(bg[3 * x]))
-        d1 = abs(np.int64(src[6 * x + 1]) - np.int64(bg[3 * x + 1]))
-        d2 = abs(np.int64(src[6 * x + 2]) - np.int64(bg[3 * x + 2]))
-        out[x] = max(max(d0, d1), d2)
+        for c in range(3):
+            a, b = src[6 * x + c], bg[3 * x + c]
+            diff[3 * x + c] = max(a, b) - min(a, b)
+    for x in range(out.shape[0]):
+        out[x] = max(max(diff[3 * x], diff[3 * x + 1]), diff[3 * x + 2])
 
 
 @njit(cache=True)

@@ -8,6 +8,8 @@ it smooths the sensor noise with less blur of the outlines than a box).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit
 
@@ -16,47 +18,78 @@ from cell.vision._segment_kernel import border, max_diff_half
 __all__: list[str] = []  # private to cell.vision
 
 
+@functools.lru_cache(maxsize=8)
 def smoothing_taps(k: int, sigma: float) -> np.ndarray:
     """(k,) uint16: the Gaussian weights (``sigma`` px, as ``cv2.getGaussianKernel``) of
     a k-tap smoothing filter in 1/256 (rounded; the centre tap takes the rounding so
-    that they sum to 256); empty for sigma 0 (a box filter) or no filter (k = 0)."""
+    that they sum to 256; symmetric); empty for sigma 0 (a box filter) or no filter
+    (k = 0). Kept per (k, sigma): read-only."""
     if sigma <= 0 or k == 0:
         return np.empty(0, np.uint16)
     x = np.arange(k) - (k - 1) / 2
     taps = np.exp(-x * x / (2 * sigma * sigma))
     weights = np.rint(256 * taps / taps.sum()).astype(np.int64)
     weights[k // 2] += 256 - weights.sum()
-    return weights.astype(np.uint16)
+    out = weights.astype(np.uint16)
+    out.flags.writeable = False
+    return out
 
 
 @njit(cache=True)
-def smooth_column(row, t, first, col):  # pragma: no cover (compiled)
-    """Add weight ``t`` times uint8 ``row`` to uint16 ``col`` (same length), or set
-    ``col`` to it when ``first`` (weights summing to 256: no overflow)."""
-    if first:
-        for e in range(col.shape[0]):
-            col[e] = t * row[e]
+def _weigh(mid, a, b, tm, t, out):  # pragma: no cover (compiled)
+    """``out`` = ``tm`` mid + ``t`` (a + b), in int32 (stored in ``out``'s type)."""
+    for e in range(out.shape[0]):
+        out[e] = tm * np.int32(mid[e]) + t * (np.int32(a[e]) + np.int32(b[e]))
+
+
+@njit(cache=True)
+def _add_pair(a, b, t, out):  # pragma: no cover (compiled)
+    """``out`` += ``t`` (a + b), in int32."""
+    for e in range(out.shape[0]):
+        out[e] += t * (np.int32(a[e]) + np.int32(b[e]))
+
+
+@njit(cache=True)
+def vertical(src, rows, lo, taps, col):  # pragma: no cover (compiled)
+    """``col`` (m,) uint16: the vertical pass of the symmetric filter ``taps`` (k,) int32
+    (in 1/256), sum_j taps[j] src[rows[j], lo : lo + m] of uint8 rows ``src`` (exact:
+    at most 255 x 256)."""
+    m, r = col.shape[0], taps.shape[0] // 2
+    d = min(r, 1)  # (k = 1: the centre alone)
+    _weigh(src[rows[r], lo : lo + m], src[rows[r - d], lo : lo + m],
+           src[rows[r + d], lo : lo + m], taps[r], taps[r - 1] if r else np.int32(0), col)
+    for j in range(r - 1):  # the pairs further out
+        _add_pair(src[rows[j], lo : lo + m], src[rows[-1 - j], lo : lo + m], taps[j], col)
+
+
+@njit(cache=True)
+def _round_pair(acc, a, b, t, out):  # pragma: no cover (compiled)
+    """``out`` = (acc + ``t`` (a + b) + 32768) >> 16: the 1/65536 sums rounded."""
+    for e in range(out.shape[0]):
+        out[e] = np.int32(acc[e] + t * (np.int32(a[e]) + np.int32(b[e])) + 32768) >> 16
+
+
+@njit(cache=True)
+def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
+    """``out`` (n,) uint8: the horizontal pass of the symmetric filter ``taps`` (k,)
+    int32 (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (the vertical pass, RGB, k // 2
+    px beyond both ends), (sum_j taps[j] col[3 j : 3 j + n] + 32768) >> 16: rounded to
+    nearest; ``acc`` (n,) int32 scratch."""
+    n, k = out.shape[0], taps.shape[0]
+    r = k // 2
+    mid = col[3 * r : 3 * r + n]
+    if r >= 2:
+        _weigh(mid, col[3 * (r - 1) : 3 * (r - 1) + n], col[3 * (r + 1) : 3 * (r + 1) + n],
+               taps[r], taps[r - 1], acc[:n])
+        for j in range(1, r - 1):
+            _add_pair(col[3 * j : 3 * j + n], col[3 * (k - 1 - j) : 3 * (k - 1 - j) + n],
+                      taps[j], acc[:n])
     else:
-        for e in range(col.shape[0]):
-            col[e] += t * row[e]
-
-
-@njit(cache=True)
-def smooth_row(col, taps, acc, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: the horizontal pass of the separable filter ``taps`` (k,)
-    (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (its vertical pass, x 256: RGB,
-    k // 2 px beyond both ends), rounded to nearest; ``acc`` (n,) uint32 scratch."""
-    k, n = taps.shape[0], out.shape[0]
-    a = acc[:n]
-    first, t = col[:n], taps[0]
-    for e in range(n):
-        a[e] = t * first[e]
-    for j in range(1, k):
-        part, t = col[3 * j : 3 * j + n], taps[j]
-        for e in range(n):
-            a[e] += t * part[e]
-    for e in range(n):
-        out[e] = (a[e] + 32768) >> 16
+        _weigh(mid, mid, mid, taps[r], np.int32(0), acc[:n])
+    if r:  # the outermost pair, and rounding
+        _round_pair(acc, col[:n], col[3 * (k - 1) : 3 * (k - 1) + n], taps[0], out)
+    else:
+        _round_pair(acc, mid, mid, np.int32(0), out)
 
 
 @njit(cache=True)
@@ -64,25 +97,28 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
     ``img`` (H, 3 W) uint8 (RGB rows) smoothed k x k (borders mirrored) at every other
     pixel: by ``cv2.blur`` (rounded to nearest) when ``taps`` is empty, else by the
-    separable filter ``taps`` (in 1/256, :func:`smooth_row`)."""
+    separable filter ``taps`` (in 1/256, symmetric: :func:`vertical`, :func:`horizontal`),
+    rounded to nearest."""
     hh, n = img.shape
     ww = n // 3
-    h = dmax.shape[0]
+    h, w = dmax.shape
     r = k // 2
     col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
     box = np.empty(3 * ww, np.uint8)
-    acc = np.empty(3 * ww, np.uint16)
+    diff = np.empty(3 * w, np.uint8)
     if taps.shape[0]:
-        colf = np.empty(3 * (ww + 2 * r), np.uint16)
-        accf = np.empty(3 * ww, np.uint32)
-        inner = colf[3 * r : 3 * (r + ww)]
+        tp = taps.astype(np.int32)
+        acc = np.empty(3 * ww, np.int32)
+        rows = np.empty(k, np.int64)
         for y in range(h):
             for i in range(k):
-                smooth_column(img[border(2 * y - r + i, hh)], taps[i], i == 0, inner)
-            _mirror_columns(colf, r, ww)
-            smooth_row(colf, taps, accf, box)
-            max_diff_half(box, bgh[y], dmax[y])
+                rows[i] = border(2 * y - r + i, hh)
+            vertical(img, rows, 0, tp, col[3 * r : 3 * (r + ww)])
+            _mirror_columns(col, r, ww)
+            horizontal(col, tp, acc, box)
+            max_diff_half(box, bgh[y], diff, dmax[y])
         return
+    acc16 = np.empty(3 * ww, np.uint16)
     for y in range(h):
         inner = col[3 * r : 3 * (r + ww)]
         row = img[border(2 * y - r, hh)]
@@ -93,8 +129,8 @@ def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
             for e in range(3 * ww):
                 inner[e] += row[e]
         _mirror_columns(col, r, ww)
-        box_row(col, k, acc, box)
-        max_diff_half(box, bgh[y], dmax[y])
+        box_row(col, k, acc16, box)
+        max_diff_half(box, bgh[y], diff, dmax[y])
 
 
 @njit(cache=True)

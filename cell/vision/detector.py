@@ -30,8 +30,8 @@ Pipeline (each step a textbook technique, each in its own module):
    (:mod:`cell.vision._part_material`, :mod:`cell.vision.material`); yaw per kind modulo
    its symmetry (a cut between touching parts is not an edge and does not count);
    position the footprint centroid on the table plane (for a bolt, a point fixed
-   relative to its two ends). A blob at the image border is reported ``partial`` with
-   kind ``unknown`` and no position.
+   relative to its two ends; :mod:`cell.vision._pose`). A blob at the image border is
+   reported ``partial`` with kind ``unknown`` and no position.
 """
 
 from __future__ import annotations
@@ -49,15 +49,16 @@ from cell.catalogue import KINDS
 from cell.errors import VisionError
 from cell.vision._blob import Blob, px_centroid
 from cell.vision._checks import check_colour
-from cell.vision._footprint import _MID, Fit, Footprints, Geometry, bolt_origin, fit_kinds
+from cell.vision._footprint import _MID, Fit, Footprints, Geometry, fit_kinds
 from cell.vision._footprint import warm_up as _warm_up
 from cell.vision._part_material import part_materials
 from cell.vision._part_material import warm_up as _warm_up_material
+from cell.vision._pose import bolt_point
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._segment import warm_up as _warm_up_segment
 from cell.vision._split import split_blob
 from cell.vision._split import warm_up as _warm_up_split
-from cell.vision.kind import footprint, footprint_yaw
+from cell.vision.kind import footprint, footprint_yaw, outline_yaw
 from cell.vision.settings import VisionSettings
 
 __all__ = ["Detection", "PartDetector"]
@@ -185,23 +186,30 @@ class PartDetector:
         mid = Footprints(geo, blobs, _MID)
         out = []
         for i, blob in enumerate(blobs):
-            fp = mid.footprint(i)
-            if (geo.area_mm2(blob) > st.max_area_mm2 or fp.length > 1.3 * _LONGEST
-                    or fp.width < st.partial_min_width):
+            if (geo.area_mm2(blob) > st.max_area_mm2 or mid.d.length[i] > 1.3 * _LONGEST
+                    or mid.d.width[i] < st.partial_min_width):
                 continue
-            out.append((blob, "unknown", 0.0, Fit(fp, centroid_px=px_centroid(blob))))
+            res = mid.fit(i)
+            res.centroid_px = px_centroid(blob)
+            out.append((blob, "unknown", 0.0, res))
         return out
 
 
 def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
-    fp = res.fp
-    sym = KINDS[kind].symmetry if kind in KINDS else 0
-    yaw = footprint_yaw(fp, kind, cut=res.cut) if (fp is not None and kind in KINDS) else 0.0
+    """Detection ``i`` of a part: its yaw from the footprint's outline, its position the
+    footprint's centroid (a bolt's: :func:`~cell.vision._pose.bolt_point`), read from the
+    ``Fit``'s descriptor row without building its ``Footprint``."""
+    _, _, cx, cy, length, width, angle = res.row[:7].tolist()
+    known = kind in KINDS
     position = None
-    if not blob.partial and fp is not None:
-        c = bolt_origin(fp) if kind == "bolt" else fp.centroid
-        position = (float(c[0]), float(c[1]))
-    size = (float(fp.length), float(fp.width)) if fp is not None else (0.0, 0.0)
+    if kind == "bolt":
+        outline = np.ascontiguousarray(res.outline)
+        if not blob.partial:
+            position = bolt_point(outline, cx, cy, angle)
+    else:
+        outline = res.outline
+        if not blob.partial:
+            position = (cx, cy)
     return Detection(
         id=i,
         material=material,
@@ -209,10 +217,10 @@ def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
         kind=kind,
         kind_confidence=round(float(conf), 4),
         centroid=(float(res.centroid_px[0]), float(res.centroid_px[1])),
-        yaw=float(yaw),
-        symmetry=sym,
+        yaw=outline_yaw(outline, cx, cy, angle, kind, res.cut) if known else 0.0,
+        symmetry=KINDS[kind].symmetry if known else 0,
         position=position,
-        size=size,
+        size=(length, width),
         partial=blob.partial,
     )
 

@@ -20,14 +20,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
-from numba import njit
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
 from cell.vision._kindfit import score_rows
 from cell.vision._polygons import describe_polygons
+from cell.vision._pose import BOLT, HEX_NUT, L_BRACKET, RECTANGLE, SQUARE_NUT, kind_yaw
 
 __all__ = [
     "Footprint",
@@ -227,88 +226,18 @@ def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:
     return names[best], float(lik[best] / lik.sum()), float(s[best])
 
 
-def _flat_angle(outline: np.ndarray, n: int, step: int = 5, *, kappa: float = 0.0,
-                iterations: int = 0, cut: int = 0) -> float:
-    """Direction (rad) of the flats' normals of an n-fold polygonal outline, mod 2*pi/n.
-
-    The n-th circular harmonic of the outline's chord directions (chords of ``step``
-    points, weighted by length): the flats dominate it, and a chord's direction does not
-    depend on how far the outline lies from the centre, so a dilated or slightly
-    perspective-stretched outline gives the same angle (directional statistics, Mardia &
-    Jupp, *Directional Statistics*, 2000, ch. 3: mean direction of n-fold axial data).
-    With ``iterations`` > 0 the mean is re-estimated that many times with each chord's
-    weight also scaled by a von Mises kernel exp(kappa * (cos(n * (psi - mean)) - 1)), an
-    iteratively reweighted (M-estimator) mean: chords across corners and along ragged
-    stretches of a noisy outline, far from the flats' direction, count less.
-    """
-    p = np.ascontiguousarray(outline, dtype=np.float64)
-    # chords over the last ``cut`` points (a straight cut between touching parts, not an
-    # edge) and _CUT_GUARD points either side of it are left out
-    skip = min(cut + 2 * _CUT_GUARD, len(p) // 2) if cut else 0
-    return _flat_angle_kernel(p, n, step, kappa, iterations, len(p) - cut - _CUT_GUARD, skip)
+_YAW_CODES = {"hex_nut": HEX_NUT, "square_nut": SQUARE_NUT, "l_bracket": L_BRACKET, "bolt": BOLT}
 
 
-_CUT_GUARD = 6  # outline points next to a cut left out of the yaw (the contact's notch)
-
-
-@njit(cache=True)
-def _flat_angle_kernel(p, n, step, kappa, iterations, skip_from, skip):  # pragma: no cover
-    m = p.shape[0]
-    e = np.empty(m, np.complex128)  # exp(i * n * psi) of each chord p[k + step] - p[k]
-    length = np.empty(m)
-    mean = 0j
-    for k in range(m):
-        j = (k + step) % m
-        # a chord spanning any of the skip points from skip_from on (cyclically) is left out
-        r = (k - skip_from) % m
-        if skip > 0 and (r < skip or r >= m - step):
-            length[k] = 0.0
-            e[k] = 0j
-            continue
-        dx, dy = p[j, 0] - p[k, 0], p[j, 1] - p[k, 1]
-        length[k] = math.sqrt(dx * dx + dy * dy)
-        u = complex(dx, dy) / max(length[k], 1e-300)
-        w = 1.0 + 0j
-        for _ in range(n):
-            w *= u
-        e[k] = w
-        mean += length[k] * w
-    for _ in range(iterations):
-        unit = mean.conjugate() / max(abs(mean), 1e-300)
-        new = 0j
-        for k in range(m):
-            new += length[k] * math.exp(kappa * ((e[k] * unit).real - 1.0)) * e[k]
-        mean = new
-    return math.atan2(mean.imag, mean.real) / n + math.pi / 2
-
-
-def _second_moment_angle(outline: np.ndarray) -> float:
-    m = cv2.moments(((outline - outline[0]) * 1e3).astype(np.float32))
-    return 0.5 * math.atan2(2 * m["mu11"], m["mu20"] - m["mu02"])
-
-
-_L_TURN = math.radians(2.0)  # see _l_bracket_yaw
-
-
-def _l_bracket_yaw(fp: Footprint) -> float:
-    """Yaw of an L bracket: direction of its long leg, seen from the outer corner."""
-    a = fp.rect_angle
-    # All the L's edges run at multiples of 90 degrees. The rectangle follows a clean
-    # outline closely (tune seeds: median 0.05 deg) but turns with a bite or a shadow on
-    # one side; the (reweighted) 4-fold mean of the chord directions does not. Where the
-    # two disagree by more than _L_TURN, the chords' angle is taken.
-    off = (_flat_angle(fp.outline, 4, kappa=2.0, iterations=2) - a + math.pi / 4) % (
-        math.pi / 2) - math.pi / 4
-    if abs(off) > _L_TURN:
-        a += off
-    u = np.array([math.cos(a), math.sin(a)])  # long side
-    s = (fp.outline - fp.centroid) @ u
-    # The centroid sits near the outer corner, so the outline reaches farther towards the
-    # long leg's tip: that way is the long leg's direction. Canonical pose (yaw 0): outer
-    # corner at -x, -y, long leg along +x (cell.sim.parts).
-    su = 1.0 if s.max() > -s.min() else -1.0
-    long_dir = su * u
-    return float(math.atan2(long_dir[1], long_dir[0]))
+def outline_yaw(outline: np.ndarray, centroid_x: float, centroid_y: float, rect_angle: float,
+                kind: str, cut: int = 0) -> float:
+    """:func:`footprint_yaw` from a footprint's outline (N, 2), centroid and rectangle's
+    angle, without building the ``Footprint``."""
+    n = KINDS[kind].symmetry if kind in KINDS else 0
+    if n == 0:
+        return 0.0
+    return kind_yaw(np.ascontiguousarray(outline, dtype=np.float64), centroid_x, centroid_y,
+                    rect_angle, _YAW_CODES.get(kind, RECTANGLE), n, cut)
 
 
 def footprint_yaw(fp: Footprint, kind: str, *, cut: int = 0) -> float:
@@ -320,24 +249,23 @@ def footprint_yaw(fp: Footprint, kind: str, *, cut: int = 0) -> float:
     Hex nut: the flats' direction from the 6th harmonic of the outline's chord directions
     (yaw 0: a corner on +x); square nut: the 4th (yaw 0: flats facing +x); bolt: the long
     axis from second moments (mod pi); L bracket: the long leg's direction seen from the outer corner.
+
+    The n-th circular harmonic of the outline's chord directions (chords of 5 points,
+    weighted by length): the flats dominate it, and a chord's direction does not depend on
+    how far the outline lies from the centre, so a dilated or slightly perspective-stretched
+    outline gives the same angle (directional statistics, Mardia & Jupp, *Directional
+    Statistics*, 2000, ch. 3: mean direction of n-fold axial data). The mean is
+    re-estimated twice with each chord's weight also scaled by a von Mises kernel
+    exp(kappa * (cos(n * (psi - mean)) - 1)), an iteratively reweighted (M-estimator) mean:
+    chords across corners and along ragged stretches of a noisy outline, far from the
+    flats' direction, count less (kappa: hex nut 1, more gently than the square nut's 2,
+    the 6th harmonic's kernel being narrower: tune/held-out dim yaw p95 2.02/2.41 ->
+    1.82/1.96 deg). The L bracket: all its edges run at multiples of 90 degrees; the
+    rectangle follows a clean outline closely (tune seeds: median 0.05 deg) but turns with
+    a bite or a shadow on one side, the 4-fold mean of the chord directions does not: where
+    the two disagree by more than 2 degrees, the chords' angle is taken; the centroid sits
+    near the outer corner, so the outline reaches farther towards the long leg's tip
+    (canonical pose, yaw 0: outer corner at -x, -y, long leg along +x, cell.sim.parts).
+    Compiled: :func:`cell.vision._pose.kind_yaw`.
     """
-    if kind not in KINDS:
-        return 0.0
-    n = KINDS[kind].symmetry
-    if n == 0:
-        return 0.0
-    if kind == "hex_nut":
-        # yaw 0: a corner on +x; reweighted, more gently than the square nut's (the 6th
-        # harmonic's kernel is narrower): tune/held-out dim yaw p95 2.02/2.41 -> 1.82/1.96 deg
-        yaw = _flat_angle(fp.outline, 6, kappa=1.0, iterations=2, cut=cut) - math.pi / 6
-    elif kind == "square_nut":
-        # yaw 0: flats facing +x; reweighted (tune seeds: raking/dim yaw p95 -0.3 deg)
-        yaw = _flat_angle(fp.outline, 4, kappa=2.0, iterations=2, cut=cut)
-    elif kind == "bolt":
-        yaw = _second_moment_angle(fp.outline)
-    elif kind == "l_bracket":
-        yaw = _l_bracket_yaw(fp)
-    else:
-        yaw = fp.rect_angle
-    period = 2 * math.pi / n
-    return float(yaw % period)
+    return outline_yaw(fp.outline, fp.centroid[0], fp.centroid[1], fp.rect_angle, kind, cut)

@@ -21,7 +21,6 @@ Under a back-light the part is a silhouette: neither cue exists, and the materia
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,23 +30,17 @@ from cell.errors import VisionError
 from cell.vision._material_kernel import (
     KEPT,
     MEAN,
-    NORM,
-    S_NOISE2,
-    S_PAR,
     UNCLIPPED,
     N,
     metal_prior,
     patch_statistics,
 )
+from cell.vision._material_labels import grain_rows, metal_odds
 
 __all__ = ["MaterialFeatures", "classify_material", "classify_materials",
            "features_from_statistics", "material_features", "materials_from_statistics"]
 
-_HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_MEAN = 0.9  # the metal grain's mean brightness factor (texture mean over texels)
-_GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
-_SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
-_WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.2  # weak grain: see _grain_evidence
 
 
 @dataclass(frozen=True)
@@ -150,7 +143,7 @@ def features_from_statistics(
                          clipped=1.0 - row[UNCLIPPED] / row[N], pixels=int(row[N]),
                          grain_visibility=vis, grain_pixels=int(row[KEPT]))
         for i, (row, (grain, z, vis, _)) in enumerate(
-            zip(stats.tolist(), _grain(stats, noise_sigma), strict=True))
+            zip(stats.tolist(), _grain(stats, noise_sigma).tolist(), strict=True))
     ]
 
 
@@ -177,19 +170,11 @@ def _albedo(means: np.ndarray, belt_rgb_seen: np.ndarray, belt_rgb: tuple[float,
     return albedo
 
 
-def _grain(stats: np.ndarray, noise_sigma: float) -> list[tuple[float, float, float, float]]:
-    """(grain, grain_z, grain_visibility, grain_pixels / pixels) of each statistics row (see
-    MaterialFeatures)."""
-    floor = noise_sigma * _HIGHPASS_GAIN
-    out = []
-    for row in stats.tolist():
-        norm, s_par = row[NORM], row[S_PAR]
-        s_noise = max(math.sqrt(max(row[S_NOISE2], 0.0)) / 1.1774, floor)  # Rayleigh median
-        grain_var = s_par**2 - s_noise**2
-        se = math.sqrt(2.0 / (0.37 * max(row[KEPT], 1.0))) * (s_par**2 + s_noise**2) + 1e-9
-        out.append((math.sqrt(max(grain_var, 0.0)) / max(norm / math.sqrt(3), 1.0),
-                    grain_var / se, (0.05 * norm / math.sqrt(3)) ** 2 / se,
-                    row[KEPT] / row[N]))
+def _grain(stats: np.ndarray, noise_sigma: float) -> np.ndarray:
+    """(grain, grain_z, grain_visibility, grain_pixels / pixels) (P, 4) of statistics rows
+    (see MaterialFeatures; compiled: :func:`cell.vision._material_labels.grain_rows`)."""
+    out = np.empty((len(stats), 4))
+    grain_rows(np.ascontiguousarray(stats, dtype=np.float64), float(noise_sigma), 2.0, out)
     return out
 
 
@@ -244,48 +229,20 @@ def classify_materials(
     if backlit or not features:
         return [("unknown", 0.0)] * len(features)
     return _labels(np.array([f.albedo for f in features]),
-                   [(f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1))
-                    for f in features],
+                   np.array([(f.grain, f.grain_z, f.grain_visibility,
+                              f.grain_pixels / max(f.pixels, 1)) for f in features]),
                    grain_metal, grain_z_min, albedo_sigma)
 
 
-def _labels(albedo: np.ndarray, grain: list[tuple[float, float, float, float]],
-            grain_metal: float, grain_z_min: float, albedo_sigma: float) -> list[tuple[str, float]]:
-    """Labels of parts from their albedos (P, 3) and (grain, grain_z, grain_visibility,
-    even-light fraction)."""
-    prior = _albedo_metal_probability(albedo, albedo_sigma).tolist()
-    bright = (albedo.sum(axis=1) / 3 >= 0.25).tolist()  # the mean, as ndarray.mean divides
-    out = []
-    for (g, z, vis, even), p, lit in zip(grain, prior, bright, strict=True):
-        # Albedo alone is never sure: specular light makes metal as bright as white plastic.
-        p = min(max(p, 0.05), 0.95)
-        odds = p / (1 - p)
-        evidence = _grain_evidence(g, z, even, grain_metal, grain_z_min) if lit else 0.0
-        if evidence > 0.0:
-            odds *= _GRAIN_ODDS**evidence
-        elif lit and g < 0.45 * grain_metal and vis >= 6.0:
-            odds *= 1.0 / _GRAIN_ODDS
-        p = odds / (1 + odds)
-        out.append(("metal", p) if p >= 0.5 else ("plastic", 1 - p))
-    return out
-
-
-def _grain_evidence(grain: float, z: float, even: float, grain_metal: float,
-                    grain_z_min: float) -> float:
-    """How much of the grain's full weight (0..1) a part's grain carries.
-
-    Full from ``grain_metal`` and ``grain_z_min``; over the last ``_SOFT_Z`` standard
-    errors below that it rises linearly, so one pixel more or less in the interior does not
-    flip a label. A weaker grain, down to ``_WEAK`` * ``grain_metal`` (a metal under a
-    specular spot: its mean brightness rises, the grain does not), counts where the
-    evidence is the stronger for it, ``_Z_PER_DEFICIT`` standard errors more at half
-    ``grain_metal``, and only on an evenly lit surface (at least ``_EVEN`` of its pixels
-    flat and lit: under directional light the shading of a thread passes for weak grain).
-    """
-    if grain >= grain_metal:
-        need = grain_z_min
-    elif grain >= _WEAK * grain_metal and even >= _EVEN:
-        need = grain_z_min + _Z_PER_DEFICIT * (1.0 - grain / grain_metal)
-    else:
-        return 0.0
-    return min(max((z - need) / _SOFT_Z + 1.0, 0.0), 1.0)
+def _labels(albedo: np.ndarray, grain: np.ndarray, grain_metal: float, grain_z_min: float,
+            albedo_sigma: float) -> list[tuple[str, float]]:
+    """Labels of parts from their albedos (P, 3) and grain rows (P, 4: grain, grain_z,
+    grain_visibility, even-light fraction). Albedo alone is never sure (specular light
+    makes metal as bright as white plastic): the prior is held within 0.05..0.95 before
+    the grain multiplies its odds (compiled: :func:`cell.vision._material_labels.metal_odds`)."""
+    albedo = np.ascontiguousarray(albedo, dtype=np.float64)
+    p = np.empty(len(albedo))
+    metal_odds(albedo, np.ascontiguousarray(grain, dtype=np.float64),
+               _albedo_metal_probability(albedo, albedo_sigma), float(grain_metal),
+               float(grain_z_min), p)
+    return [("metal", q) if q >= 0.5 else ("plastic", 1 - q) for q in p.tolist()]

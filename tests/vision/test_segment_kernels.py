@@ -70,6 +70,24 @@ def test_gaussian_taps_are_opencvs_kernel_in_256ths():
     assert smoothing_taps(5, 0.0).size == 0
 
 
+@pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0), (9, 1.5)])
+def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma):
+    """Vertical then horizontal sums of the 1/256 taps (mirrored borders, as
+    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16."""
+    rng = np.random.default_rng(k)
+    img = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    bg = rng.integers(0, 256, (24, 3 * 32), dtype=np.uint8)
+    taps = smoothing_taps(k, sigma)
+    got = np.empty((24, 32), np.uint8)
+    box_difference(img.reshape(48, 3 * 64), bg, k, taps, got)
+    r, t = k // 2, taps.astype(np.int64)
+    p = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REFLECT_101).astype(np.int64)
+    vert = sum(t[j] * p[j : j + 48] for j in range(k))
+    smooth = (sum(t[j] * vert[:, j : j + 64] for j in range(k)) + 32768) >> 16
+    expect = np.abs(smooth[::2, ::2] - bg.reshape(24, 32, 3)).max(axis=2)
+    np.testing.assert_array_equal(got, expect)
+
+
 def test_gaussian_smoothing_reduces_noise_more_gently_than_the_box_at_an_edge():
     """On a noisy step edge the Gaussian leaves less noise than none and a steeper edge
     than the box filter of the same aperture."""
@@ -103,3 +121,25 @@ def test_threshold_and_opening_are_opencvs():
         mask = cv2.threshold(d, t, 255, cv2.THRESH_BINARY)[1]
         expect = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
         np.testing.assert_array_equal(got, expect)
+
+
+@pytest.mark.parametrize("shape", [(60, 80), (9, 13)])
+def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
+    """The refinement's background of a window (integer tables, float32 rows) is what
+    ``cv2.resize`` (bilinear) of the whole 1/8-scale estimate gives there."""
+    from cell.vision._mosaic import _background
+    from cell.vision._segment_kernel import upscale_axis
+
+    hs, ws = shape
+    rng = np.random.default_rng(hs)
+    small = rng.integers(0, 256, (hs, ws, 3), dtype=np.uint8)
+    small[: hs // 2, : ws // 2] = 255  # saturation and flat areas
+    full = cv2.resize(small, (8 * ws, 8 * hs), interpolation=cv2.INTER_LINEAR)
+    rows, cols = upscale_axis(hs, 8 * hs, False), upscale_axis(ws, 8 * ws, True)
+    for x0, y0, x1, y1 in ((0, 0, 8 * ws, 8 * hs), (3, 5, 40, 33), (8 * ws - 9, 8 * hs - 7,
+                                                                      8 * ws, 8 * hs)):
+        h, w = y1 - y0, x1 - x0
+        inter = np.empty((hs, 3 * w), np.float32)
+        got = np.empty((h, 3 * w), np.uint8)
+        _background(small, rows, cols, x0, y0, h, w, inter, got)
+        np.testing.assert_array_equal(got.reshape(h, w, 3), full[y0:y1, x0:x1])

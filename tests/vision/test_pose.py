@@ -1,5 +1,8 @@
 """The compiled yaw and bolt reference point (cell.vision._pose) against their numpy and
-OpenCV formulation, bit for bit, on the catalogue's outlines turned, shifted and jittered."""
+OpenCV formulation, on the catalogue's outlines turned, shifted and jittered. On this
+project's machines they agree bit for bit (the kernels round products as numpy's matrix
+product does there: fused multiply-add); the tests allow 1e-12, so a numpy that rounds
+differently does not fail them."""
 
 from __future__ import annotations
 
@@ -78,14 +81,16 @@ pose = (st.floats(0, 2 * math.pi), st.floats(-0.2, 0.2), st.floats(-0.2, 0.2),
 def test_yaw_is_the_numpy_formulation(kind, yaw, dx, dy, seed, cut):
     fp = footprint(_jittered(kind, yaw, dx, dy, seed))
     cut = cut if kind in ("hex_nut", "square_nut") else 0
-    assert footprint_yaw(fp, kind, cut=cut) == _yaw(fp, kind, cut)
+    period = {"hex_nut": math.pi / 3, "square_nut": math.pi / 2, "bolt": math.pi}.get(kind, 2 * math.pi)
+    d = (footprint_yaw(fp, kind, cut=cut) - _yaw(fp, kind, cut)) % period
+    assert min(d, period - d) < 1e-12
 
 
 @settings(max_examples=120, deadline=None)
 @given(*pose)
 def test_bolt_origin_is_the_numpy_formulation(yaw, dx, dy, seed):
     fp = footprint(_jittered("bolt", yaw, dx, dy, seed))
-    np.testing.assert_array_equal(bolt_origin(fp), _bolt_origin(fp))
+    np.testing.assert_allclose(bolt_origin(fp), _bolt_origin(fp), rtol=0, atol=1e-12)
 
 
 @settings(max_examples=200, deadline=None)

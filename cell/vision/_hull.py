@@ -38,19 +38,55 @@ def convex_hull(points):  # pragma: no cover (compiled)
     empty = np.empty(0, np.int32)
     if n < 3:
         return empty
-    key = np.empty(n, np.int64)
+    # only the lowest and highest point of each column can be a vertex (any other lies
+    # between them): those, in the (x, y) order the chain takes, with how often each
+    # point occurs (a vertex the contour passes twice is OpenCV's choice)
+    x0, x1 = points[0, 0], points[0, 0]
+    for i in range(1, n):
+        x0, x1 = min(x0, points[i, 0]), max(x1, points[i, 0])
+    w = np.int64(x1) - np.int64(x0) + 1
+    lo_i = np.full(w, -1, np.int64)
+    hi_i = np.full(w, -1, np.int64)
+    lo_n = np.zeros(w, np.int64)
+    hi_n = np.zeros(w, np.int64)
     for i in range(n):
-        key[i] = (np.int64(points[i, 0]) + 2**20) * 2**22 + (np.int64(points[i, 1]) + 2**20)
-    order = np.argsort(key)
-    h = np.empty(2 * n + 1, np.int64)
+        c = np.int64(points[i, 0]) - np.int64(x0)
+        y = points[i, 1]
+        if lo_i[c] < 0:
+            lo_i[c], hi_i[c], lo_n[c], hi_n[c] = i, i, 1, 1
+            continue
+        ly, hy = points[lo_i[c], 1], points[hi_i[c], 1]
+        if y < ly:
+            lo_i[c], lo_n[c] = i, 1
+        elif y == ly:
+            lo_n[c] += 1
+        if y > hy:
+            hi_i[c], hi_n[c] = i, 1
+        elif y == hy:
+            hi_n[c] += 1
+    order = np.empty(2 * w, np.int64)
+    twice = np.zeros(n, np.bool_)
+    n_ord = 0
+    for c in range(w):
+        if lo_i[c] < 0:
+            continue
+        order[n_ord] = lo_i[c]
+        twice[lo_i[c]] = lo_n[c] > 1
+        n_ord += 1
+        if hi_i[c] != lo_i[c] and points[hi_i[c], 1] != points[lo_i[c], 1]:
+            order[n_ord] = hi_i[c]
+            twice[hi_i[c]] = hi_n[c] > 1
+            n_ord += 1
+    h = np.empty(2 * n_ord + 1, np.int64)
     k = 0
-    for i in order:  # lower hull, then upper: counter-clockwise in (x, y)
+    for q in range(n_ord):  # lower hull, then upper: counter-clockwise in (x, y)
+        i = order[q]
         while k >= 2 and _cross(points, h[k - 2], h[k - 1], i) <= 0:
             k -= 1
         h[k] = i
         k += 1
     low = k + 1
-    for q in range(n - 2, -1, -1):
+    for q in range(n_ord - 2, -1, -1):
         i = order[q]
         while k >= low and _cross(points, h[k - 2], h[k - 1], i) <= 0:
             k -= 1
@@ -59,12 +95,8 @@ def convex_hull(points):  # pragma: no cover (compiled)
     m = k - 1
     if m < 3:
         return empty
-    rank = np.empty(n, np.int64)  # equal points lie side by side in the sorted order
-    for q in range(n):
-        rank[order[q]] = q
     for v in range(m):  # a vertex the contour passes twice: which index OpenCV takes varies
-        q = rank[h[v]]
-        if (q > 0 and key[order[q - 1]] == key[h[v]]) or (q + 1 < n and key[order[q + 1]] == key[h[v]]):
+        if twice[h[v]]:
             return empty
     lo = hi = 0
     for v in range(1, m):

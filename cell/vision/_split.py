@@ -21,6 +21,7 @@ import numpy as np
 
 from cell.camera import CameraModel
 from cell.vision._blob import Blob, blobs_of_mask, make_blobs, px_centroid
+from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
 from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
@@ -48,6 +49,8 @@ _BUDGET = 24
 # this much better on average, up to a mean fit of _POOR (dim frames blur every outline).
 _BETTER = 2.0
 _POOR = 13.0
+
+_NO_HOLES = np.empty((0, 2))
 
 Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint, fit
 
@@ -169,33 +172,46 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
     holes inside it; its rays come from the blob's (no new contour tracing). The cuts
     are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each
     up to the next cut the search in :func:`_split` may stop at or recurse from."""
-    outline = int_outline(blob.contour, blob.normals)
-    if len(outline) < 5:
-        return
-    hull = convex_hull(outline)
-    if len(hull) == 0:  # not plain: OpenCV decides
-        hull = cv2.convexHull(outline, returnPoints=False)
-        hull = np.empty(0, np.int32) if hull is None else hull.reshape(-1)
-    if len(hull) < 4:
+    if budget[0] <= 0:
         return
     geo.prepare([blob])
     k = search_constants(geo, min_confidence)
-    first, second, starts, cut, normals, rays, away = cut_candidates(
-        blob.contour, blob.normals, outline, hull, *k.camera)
-    if not k.pinhole:
-        rays, away = geo.plane_rays(cut, normals)
-    holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else np.empty((0, 2))
+    holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else _NO_HOLES
     hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else holes
+    status, res = -1, None
+    if k.pinhole:  # the usual case: the cuts and their first batch in one call
+        status, first, second, starts, cut, normals, rays, away, res = first_cuts(
+            blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes, hole_pts,
+            budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.camera, *k.fit)
+    if status == 0:
+        return
+    if status < 0:  # another camera model, or a hull OpenCV must make
+        res = None
+        outline = int_outline(blob.contour, blob.normals)
+        if len(outline) < 5:
+            return
+        hull = convex_hull(outline)
+        if len(hull) == 0:  # not plain: OpenCV decides
+            hull = cv2.convexHull(outline, returnPoints=False)
+            hull = np.empty(0, np.int32) if hull is None else hull.reshape(-1)
+        if len(hull) < 4:
+            return
+        first, second, starts, cut, normals, rays, away = cut_candidates(
+            blob.contour, blob.normals, outline, hull, *k.camera)
+        if not k.pinhole:
+            rays, away = geo.plane_rays(cut, normals)
     ends = starts.tolist()
     c = 0
     while c < len(ends) - 1 and budget[0] > 0:
-        res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
-                            hole_pts, first, second, starts, cut, normals, rays, away, c, budget[0],
-                            may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
+        if res is None:
+            res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
+                                hole_pts, first, second, starts, cut, normals, rays, away, c,
+                                budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
         meta, fits, held = res[0].tolist(), res[1][:, :2].tolist(), res[8].tolist()
         for p in range(0, len(meta), 2):
             yield _batch_pieces(blob, res, meta, fits, held, p), ends[c + 1] - ends[c]
             c += 1
+        res = None
 
 
 def _batch_pieces(blob: Blob, res: tuple, meta: list, fits: list, held: list,

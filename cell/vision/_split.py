@@ -20,7 +20,8 @@ import cv2
 import numpy as np
 
 from cell.camera import CameraModel
-from cell.vision._blob import Blob, blobs_of_mask, make_blobs, px_centroid
+from cell.vision._blob import Blob, blobs_of_mask, make_blobs
+from cell.vision._centroid import piece_centroid
 from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces
@@ -65,7 +66,7 @@ def split_blob(blob: Blob, view: FrameView, *,
         limit = max(_ACCEPT, min(whole_fit - _BETTER, _POOR))
     pieces = _split(blob, view, 0, [_BUDGET], limit)
     for p in pieces:  # (only the pieces kept: the search never reads a centroid)
-        p[3].centroid_px = px_centroid(p[0])
+        p[3].centroid_px = piece_centroid(p[0])
     return [p[:4] for p in pieces]
 
 
@@ -263,27 +264,33 @@ def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list
     mask, with holes, as :func:`cell.vision._blob.blobs_of_mask` finds them; all outlined
     in one pass), or None when a piece is a speck or not one region."""
     masks, counts = owned_pieces(roi, seeds)
-    contours: list = []
-    hier: list = []
-    outer, boxes = [], []
-    for mask, count in zip(masks, counts.tolist(), strict=True):
-        if count < 30:
+    if counts.min() < 30:
+        return None
+    n, h, w = masks.shape
+    # the masks one below the other, outlined in one pass: each has a blank border (the
+    # roi's), so no contour crosses from one to the next, and each mask's contours come
+    # in its own order, with its own hierarchy
+    contours, hr = cv2.findContours(masks.reshape(n * h, w), cv2.RETR_CCOMP,
+                                    cv2.CHAIN_APPROX_NONE)
+    if hr is None:
+        return None
+    hier = hr[0].tolist()
+    outer = [-1] * n  # each mask's one outer contour
+    for i, c in enumerate(contours):
+        if hier[i][3] != -1 or len(c) < 8 or cv2.contourArea(c) < 30:
+            continue
+        band = int(c[0, 0, 1]) // h
+        if outer[band] >= 0:  # a mask with two
             return None
-        cs, hr = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-        if hr is None:
-            return None
-        hr = hr[0].tolist()
-        own = [i for i, c in enumerate(cs) if hr[i][3] == -1 and len(c) >= 8
-               and cv2.contourArea(c) >= 30]
-        if len(own) != 1:
-            return None
-        bx, by, bw, bh = cv2.boundingRect(cs[own[0]])
-        boxes.append((bx + offset[0], by + offset[1], bw, bh))
-        base = len(contours)
-        outer.append(base + own[0])
-        contours.extend(cs)
-        hier.extend([[q + base if q >= 0 else -1 for q in row] for row in hr])
-    subs = make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
+        outer[band] = i
+    if min(outer) < 0:
+        return None
+    offsets, boxes = [], []
+    for band, i in enumerate(outer):
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        offsets.append((offset[0], offset[1] - band * h))
+        boxes.append((bx + offset[0], by - band * h + offset[1], bw, bh))
+    subs = make_blobs(contours, hier, outer, offsets, [False] * n, boxes)
     for sub, mask in zip(subs, masks, strict=True):
         sub.roi = (offset[0], offset[1], mask)
     return subs

@@ -89,6 +89,16 @@ def _piece(contour, normals, rays, away, hole_starts, runs, cut, cut_normals, cu
 
 
 @njit(cache=True)
+def _wrapped(a, b, n):  # pragma: no cover (compiled)
+    """``np.arange(a, b) % n`` for 0 <= a < n and b <= 2 n, without the divisions."""
+    out = np.empty(b - a, np.int64)
+    for k in range(b - a):
+        g = a + k
+        out[k] = g - n if g >= n else g
+    return out
+
+
+@njit(cache=True)
 def _run_area(contour, runs):  # pragma: no cover (compiled)
     """:func:`cell.vision._polygons.polygon_area` of ``contour[runs]``, term by term the
     same (so equal to the last bit), without the copy."""
@@ -239,7 +249,7 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
         done += 1
         meta[p, 4] = meta[p + 1, 4] = -2  # until both pieces are in
         s, e = starts[c], starts[c + 1]
-        runs0, runs1 = np.arange(fi, fj + 1), np.arange(fj, n + fi + 1) % n
+        runs0, runs1 = np.arange(fi, fj + 1), _wrapped(fj, n + fi + 1, n)
         if _run_area(contour, runs0) < 30 or _run_area(contour, runs1) < 30:
             continue
         arrs0, arrs1, holes0, holes1 = _two_pieces(

@@ -155,12 +155,17 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
     filled = roi.copy()  # holes filled: a washer's core is its whole disc
     for hole, hn in blob.holes:
         cv2.drawContours(roi, [int_outline(hole, hn)], -1, 0, -1, offset=(-ox, -oy))
+    done: dict[bytes, list[Piece] | None] = {}  # the cuts so far, by their pieces' pixels
     for seeds in _core_cuts(filled):
         if budget[0] <= 0:
             return
         budget[0] -= 1
-        pieces = _pieces(roi, seeds, (ox, oy))
-        yield None if pieces is None else _evaluate(pieces, view, may_split)
+        masks, counts = owned_pieces(roi, seeds)
+        key = masks.tobytes()  # a deeper level's cores often own the same pieces
+        if key not in done:
+            pieces = _pieces(masks, counts, (ox, oy))
+            done[key] = None if pieces is None else _evaluate(pieces, view, may_split)
+        yield done[key]
 
 
 def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: bool,
@@ -258,12 +263,13 @@ def _core_cuts(roi: np.ndarray):
             yield labels.astype(np.uint8)
 
 
-def _pieces(roi: np.ndarray, seeds: np.ndarray, offset: tuple[int, int]) -> list[Blob] | None:
-    """Every pixel of ``roi`` to its nearest seed (:func:`cell.vision._cutraster.owned_pieces`):
-    the pieces' blobs (each the one outer contour of at least 8 points and 30 px^2 of its
-    mask, with holes, as :func:`cell.vision._blob.blobs_of_mask` finds them; all outlined
-    in one pass), or None when a piece is a speck or not one region."""
-    masks, counts = owned_pieces(roi, seeds)
+def _pieces(masks: np.ndarray, counts: np.ndarray,
+            offset: tuple[int, int]) -> list[Blob] | None:
+    """The blobs of the pieces a cut at the cores gives (``masks`` and ``counts`` from
+    :func:`cell.vision._cutraster.owned_pieces`: every pixel of the blob to its nearest
+    seed), each the one outer contour of at least 8 points and 30 px^2 of its mask, with
+    holes, as :func:`cell.vision._blob.blobs_of_mask` finds them (all outlined in one
+    pass), or None when a piece is a speck or not one region."""
     if counts.min() < 30:
         return None
     n, h, w = masks.shape
@@ -317,19 +323,22 @@ def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
 
 
 def warm_up() -> None:
-    """Run both kinds of cut (on the outline: cut generation, pieces and fits; on the
-    raster: cores, owners, pieces' contours) once on a made-up blob of two touching
-    discs, so their first real use loads nothing."""
+    """Run both kinds of cut (on the outline: cut generation, pieces and fits, in one
+    call and, as for a camera with lens distortion, kernel by kernel; on the raster:
+    cores, owners, pieces' contours) and the pieces' centroid once on a made-up blob of
+    two touching discs, so their first real use loads nothing."""
     roi = np.zeros((40, 70), np.uint8)
     cv2.circle(roi, (20, 20), 14, 255, -1)
     cv2.circle(roi, (47, 20), 14, 255, -1)
     for seeds in _core_cuts(roi):
-        _pieces(roi, seeds, (0, 0))
+        _pieces(*owned_pieces(roi, seeds), (0, 0))
     K = np.array([[600.0, 0, 35.0], [0, 600.0, 20.0], [0, 0, 1]])
     T = np.eye(4)
     T[:3, :3] = np.diag([1.0, -1.0, -1.0])
     T[:3, 3] = (0.0, 0.0, 0.4)
-    geo = Geometry(CameraModel(70, 40, K, np.zeros(5), T), 0.0)
-    blob = blobs_of_mask(roi, (0, 0))[0]
-    for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
-        pass
+    for dist in (np.zeros(5), np.array([-0.1, 0.0, 0.0, 0.0, 0.0])):
+        geo = Geometry(CameraModel(70, 40, K, dist, T), 0.0)
+        blob = blobs_of_mask(roi, (0, 0))[0]
+        for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
+            pass
+    piece_centroid(blob)

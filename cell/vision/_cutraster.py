@@ -9,13 +9,17 @@ are asked for; Borgefors, *Distance transformations in digital images*, CVGIP 34
 a forward and a backward raster pass in 16-bit fixed point with the weights 1, 1.4 and
 2.1969, each pixel taking the label of the neighbour that lowers its distance first, as
 ``distanceTransformEx_5x5`` in OpenCV's imgproc/src/distransform.cpp does.
-``tests/vision/test_cutraster.py`` checks it against OpenCV.
+``tests/vision/test_cutraster.py`` checks it against OpenCV. :func:`piece_blobs` outlines
+the pieces (``cv2.findContours``).
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from numba import njit
+
+from cell.vision._blob import Blob, make_blobs
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -130,3 +134,42 @@ def owned_pieces(roi, seeds):  # pragma: no cover (compiled)
                     masks[v - 1, i, j] = 255
                     counts[v - 1] += 1
     return masks, counts
+
+
+def piece_blobs(masks: np.ndarray, counts: np.ndarray,
+                offset: tuple[int, int]) -> list[Blob] | None:
+    """The blobs of the pieces a cut at the cores gives (``masks`` and ``counts`` from
+    :func:`owned_pieces`: every pixel of the blob to its nearest
+    seed), each the one outer contour of at least 8 points and 30 px^2 of its mask, with
+    holes, as :func:`cell.vision._blob.blobs_of_mask` finds them (all outlined in one
+    pass), or None when a piece is a speck or not one region."""
+    if counts.min() < 30:
+        return None
+    n, h, w = masks.shape
+    # the masks one below the other, outlined in one pass: each has a blank border (the
+    # roi's), so no contour crosses from one to the next, and each mask's contours come
+    # in its own order, with its own hierarchy
+    contours, hr = cv2.findContours(masks.reshape(n * h, w), cv2.RETR_CCOMP,
+                                    cv2.CHAIN_APPROX_NONE)
+    if hr is None:
+        return None
+    hier = hr[0].tolist()
+    outer = [-1] * n  # each mask's one outer contour
+    for i, c in enumerate(contours):
+        if hier[i][3] != -1 or len(c) < 8 or cv2.contourArea(c) < 30:
+            continue
+        band = int(c[0, 0, 1]) // h
+        if outer[band] >= 0:  # a mask with two
+            return None
+        outer[band] = i
+    if min(outer) < 0:
+        return None
+    offsets, boxes = [], []
+    for band, i in enumerate(outer):
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        offsets.append((offset[0], offset[1] - band * h))
+        boxes.append((bx + offset[0], by - band * h + offset[1], bw, bh))
+    subs = make_blobs(contours, hier, outer, offsets, [False] * n, boxes)
+    for sub, mask in zip(subs, masks, strict=True):
+        sub.roi = (offset[0], offset[1], mask)
+    return subs

@@ -8,8 +8,9 @@ to its nearest core. The candidate whose pieces fit their kinds best wins. A pie
 fits no kind is split again (chains of up to four parts) when it is large enough to
 hold two parts; one that fits a kind poorly only when no cut's pieces fit well as they
 are. The outline cuts are generated, built and fitted in compiled passes
-(:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`), the cores' pieces found in
-one (:mod:`cell.vision._cutraster`); the search itself stays here.
+(:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`; a blob's first batch in one
+call, :mod:`cell.vision._cutblob`), the cores' pieces found and outlined in one
+(:mod:`cell.vision._cutraster`); the search itself stays here.
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ import cv2
 import numpy as np
 
 from cell.camera import CameraModel
-from cell.vision._blob import Blob, blobs_of_mask, make_blobs
+from cell.vision._blob import Blob, blobs_of_mask
 from cell.vision._centroid import piece_centroid
 from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts
-from cell.vision._cutraster import owned_pieces
+from cell.vision._cutraster import owned_pieces, piece_blobs
 from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
 from cell.vision._footprint import Fit, Geometry, fit_kinds, fit_of
 from cell.vision._hull import convex_hull
@@ -163,7 +164,7 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores: bool, budge
         masks, counts = owned_pieces(roi, seeds)
         key = masks.tobytes()  # a deeper level's cores often own the same pieces
         if key not in done:
-            pieces = _pieces(masks, counts, (ox, oy))
+            pieces = piece_blobs(masks, counts, (ox, oy))
             done[key] = None if pieces is None else _evaluate(pieces, view, may_split)
         yield done[key]
 
@@ -263,45 +264,6 @@ def _core_cuts(roi: np.ndarray):
             yield labels.astype(np.uint8)
 
 
-def _pieces(masks: np.ndarray, counts: np.ndarray,
-            offset: tuple[int, int]) -> list[Blob] | None:
-    """The blobs of the pieces a cut at the cores gives (``masks`` and ``counts`` from
-    :func:`cell.vision._cutraster.owned_pieces`: every pixel of the blob to its nearest
-    seed), each the one outer contour of at least 8 points and 30 px^2 of its mask, with
-    holes, as :func:`cell.vision._blob.blobs_of_mask` finds them (all outlined in one
-    pass), or None when a piece is a speck or not one region."""
-    if counts.min() < 30:
-        return None
-    n, h, w = masks.shape
-    # the masks one below the other, outlined in one pass: each has a blank border (the
-    # roi's), so no contour crosses from one to the next, and each mask's contours come
-    # in its own order, with its own hierarchy
-    contours, hr = cv2.findContours(masks.reshape(n * h, w), cv2.RETR_CCOMP,
-                                    cv2.CHAIN_APPROX_NONE)
-    if hr is None:
-        return None
-    hier = hr[0].tolist()
-    outer = [-1] * n  # each mask's one outer contour
-    for i, c in enumerate(contours):
-        if hier[i][3] != -1 or len(c) < 8 or cv2.contourArea(c) < 30:
-            continue
-        band = int(c[0, 0, 1]) // h
-        if outer[band] >= 0:  # a mask with two
-            return None
-        outer[band] = i
-    if min(outer) < 0:
-        return None
-    offsets, boxes = [], []
-    for band, i in enumerate(outer):
-        bx, by, bw, bh = cv2.boundingRect(contours[i])
-        offsets.append((offset[0], offset[1] - band * h))
-        boxes.append((bx + offset[0], by - band * h + offset[1], bw, bh))
-    subs = make_blobs(contours, hier, outer, offsets, [False] * n, boxes)
-    for sub, mask in zip(subs, masks, strict=True):
-        sub.roi = (offset[0], offset[1], mask)
-    return subs
-
-
 def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece] | None:
     """Each piece with its best kind (:func:`_judge`)."""
     fits = fit_kinds(subs, view.geo, view.settings.min_kind_confidence)
@@ -331,7 +293,7 @@ def warm_up() -> None:
     cv2.circle(roi, (20, 20), 14, 255, -1)
     cv2.circle(roi, (47, 20), 14, 255, -1)
     for seeds in _core_cuts(roi):
-        _pieces(*owned_pieces(roi, seeds), (0, 0))
+        piece_blobs(*owned_pieces(roi, seeds), (0, 0))
     K = np.array([[600.0, 0, 35.0], [0, 600.0, 20.0], [0, 0, 1]])
     T = np.eye(4)
     T[:3, :3] = np.diag([1.0, -1.0, -1.0])

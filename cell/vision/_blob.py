@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import cv2
 import numpy as np
@@ -56,7 +57,7 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
     lengths = [len(m) for m in members]
     outline, normals = outline_normals_many(np.concatenate(members).reshape(-1, 2),
                                             np.array(lengths), np.array(hole), np.array(shifts))
-    ends = np.cumsum(lengths).tolist()
+    ends = list(accumulate(lengths))
     pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
     blobs: list[Blob] = []
     for is_hole, piece in zip(hole, pieces, strict=True):

@@ -102,18 +102,22 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
-    d = np.empty((hmax, wmax), np.uint8)
     diff = np.empty(wmax * 3, np.uint8)
     near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
-    a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
-    b = np.empty((hmax + 2, wmax + 2), np.uint8)
-    tmp = np.empty((hmax + 2, wmax), np.uint8)
+    near_tmp = np.empty((hmax // 2 + 3, wmax // 2 + 1), np.uint8)
+    size = (hmax + 2) * (wmax + 2)  # d and the masks with a one-pixel frame, each window
+    d_buf, a_buf, b_buf, tmp = (np.empty(size, np.uint8), np.empty(size, np.uint8),
+                                np.empty(size, np.uint8), np.empty(size, np.uint8))
     hist = np.empty(256, np.int64)
     cut = np.int64(np.floor(level))
     for i in range(boxes.shape[0]):
         x0, y0, x1, y1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
         mx, my = at[i, 0], at[i, 1]
         h, w = y1 - y0, x1 - x0
+        n_px = (h + 2) * (w + 2)  # (the window's own row length, so that the mask
+        d = d_buf[:n_px].reshape((h + 2, w + 2))  # operations run over whole windows)
+        a = a_buf[:n_px].reshape((h + 2, w + 2))
+        b = b_buf[:n_px].reshape((h + 2, w + 2))
         window(flat, x0, y0, h, w, pad, win)
         if k and taps.shape[0]:
             m = 3 * (w + k - 1)
@@ -127,16 +131,14 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):
             srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
-            drow, arow = d[y, :w], a[y + 1, 1 : w + 1]
-            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], drow)
-            for x in range(w):
-                arow[x] = drow[x] > cut
-        _open3(a, b, tmp, h, w)  # -> a
-        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, tmp, near_win)
+            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], d[y + 1, 1 : w + 1])
+        _above(d_buf[:n_px], cut, a_buf[:n_px])  # (the frame set after)
+        _open3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], h, w)  # -> a
+        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, near_tmp, near_win)
         hist[:] = 0
         n = 0
         for y in range(h):
-            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y, :w]
+            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y + 1, 1 : w + 1]
             for x in range(w):
                 frow[x] |= 255 * arow[x]
             nrow = near_win[y // 2]
@@ -151,14 +153,11 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
             again = max(level, edge * upper_median(hist, n))
         again_cut = min(np.int64(np.floor(again)), 255)
         _frame(a, h, w, 0)
-        _max3(a, b, tmp, h, w)  # b: the own part dilated
-        for y in range(h):
-            brow, drow = b[y + 1, 1 : w + 1], d[y, :w]
-            for x in range(w):
-                brow[x] = brow[x] & (drow[x] > again_cut)
+        _max3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], w + 2)  # b: the own part dilated
+        _and_above(d_buf[:n_px], again_cut, b_buf[:n_px])
         if keep < 1:
             drop_shadow(b, win, pad, bg, h, w, keep, sums)
-        _open3(b, a, tmp, h, w)  # -> b
+        _open3(b_buf[:n_px], a_buf[:n_px], tmp[:n_px], h, w)  # -> b
         for y in range(h):
             brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
             for x in range(w):
@@ -267,34 +266,54 @@ def _frame(m, h, w, value):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _min3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
-    for y in range(h + 2):
-        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
-        for x in range(w):
-            t[x] = min(min(s0[x], s1[x]), s2[x])
-    for y in range(h):
-        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
-        for x in range(w):
-            out[x] = min(min(t0[x], t1[x]), t2[x])
+def _above(d, level, out):  # pragma: no cover (compiled)
+    """``out`` = ``d`` > ``level``, over whole flat arrays."""
+    for e in range(d.shape[0]):
+        out[e] = d[e] > level
 
 
 @njit(cache=True)
-def _max3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
-    for y in range(h + 2):
-        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
-        for x in range(w):
-            t[x] = max(max(s0[x], s1[x]), s2[x])
-    for y in range(h):
-        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
-        for x in range(w):
-            out[x] = max(max(t0[x], t1[x]), t2[x])
+def _and_above(d, level, out):  # pragma: no cover (compiled)
+    """``out`` &= ``d`` > ``level``, over whole flat arrays."""
+    for e in range(d.shape[0]):
+        out[e] = out[e] & (d[e] > level)
+
+
+@njit(cache=True)
+def _min3(src, dst, tmp, wide):  # pragma: no cover (compiled)
+    """``dst``: the minimum of 0/1 ``src`` over each pixel's 3x3 neighbourhood, on the
+    rows of ``wide`` pixels of flat arrays, at every pixel not on the first or last row
+    or column (what those get is not a minimum); ``tmp`` scratch."""
+    n = src.shape[0]
+    s0, s1, s2, t = src[: n - 2], src[1 : n - 1], src[2:], tmp[1 : n - 1]
+    for e in range(n - 2):  # along the rows (across their ends too: unused)
+        t[e] = min(min(s0[e], s1[e]), s2[e])
+    m = n - 2 * wide
+    t0, t1, t2, out = tmp[:m], tmp[wide : wide + m], tmp[2 * wide :], dst[wide : wide + m]
+    for e in range(m):
+        out[e] = min(min(t0[e], t1[e]), t2[e])
+
+
+@njit(cache=True)
+def _max3(src, dst, tmp, wide):  # pragma: no cover (compiled)
+    """As :func:`_min3`, the maximum."""
+    n = src.shape[0]
+    s0, s1, s2, t = src[: n - 2], src[1 : n - 1], src[2:], tmp[1 : n - 1]
+    for e in range(n - 2):
+        t[e] = max(max(s0[e], s1[e]), s2[e])
+    m = n - 2 * wide
+    t0, t1, t2, out = tmp[:m], tmp[wide : wide + m], tmp[2 * wide :], dst[wide : wide + m]
+    for e in range(m):
+        out[e] = max(max(t0[e], t1[e]), t2[e])
 
 
 @njit(cache=True)
 def _open3(m, work, tmp, h, w):  # pragma: no cover (compiled)
-    """3x3 opening of the (h, w) window of padded 0/1 mask ``m``, in place; what lies
-    beyond the window counts for neither erosion nor dilation."""
-    _frame(m, h, w, 1)
-    _min3(m, work, tmp, h, w)
-    _frame(work, h, w, 0)
-    _max3(work, m, tmp, h, w)
+    """3x3 opening of the (h, w) window of 0/1 mask ``m`` (flat, rows of w + 2 with a
+    one-pixel frame), in place; what lies beyond the window counts for neither erosion
+    nor dilation. The frame of ``m`` is left undefined."""
+    wide = w + 2
+    _frame(m.reshape((h + 2, wide)), h, w, 1)
+    _min3(m, work, tmp, wide)
+    _frame(work.reshape((h + 2, wide)), h, w, 0)
+    _max3(work, m, tmp, wide)

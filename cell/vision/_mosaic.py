@@ -28,7 +28,7 @@ from cell.vision._segment_kernel import (
     max_diff,
     upper_median,
 )
-from cell.vision._smooth_kernel import box_row, horizontal, vertical
+from cell.vision._smooth_kernel import box_row, gaussian_window
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -92,13 +92,15 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         hmax = max(hmax, boxes[i, 3] - boxes[i, 1])
         wmax = max(wmax, boxes[i, 2] - boxes[i, 0])
         small = max(small, rows[1, boxes[i, 3] - 1] - rows[0, boxes[i, 1]] + 1)
-    win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
+    win_size = (hmax + 2 * pad) * (wmax + 2 * pad) * 3
+    win_buf = np.empty(win_size, np.uint8)  # (each window with its own row length)
     sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
     acc = np.empty(wmax * 3, np.uint16)
-    colf = np.empty((wmax + 2 * pad) * 3, np.uint16)  # (Gaussian smoothing)
-    accf = np.empty(wmax * 3, np.int32)
+    gauss = k > 0 and taps.shape[0] > 0
+    colf = np.empty(win_size if gauss else 0, np.uint16)  # (Gaussian smoothing)
+    accf = np.empty(win_size if gauss else 0, np.int32)
+    srcf = np.empty(win_size if gauss else 0, np.uint8)
     tp = taps.astype(np.int32)
-    lines = np.empty(max(k, 1), np.int64)  # the window rows under the filter
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
@@ -118,19 +120,21 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         d = d_buf[:n_px].reshape((h + 2, w + 2))  # operations run over whole windows)
         a = a_buf[:n_px].reshape((h + 2, w + 2))
         b = b_buf[:n_px].reshape((h + 2, w + 2))
+        wide = 3 * (w + 2 * pad)
+        win = win_buf[: (h + 2 * pad) * wide].reshape((h + 2 * pad, wide))
         window(flat, x0, y0, h, w, pad, win)
-        if k and taps.shape[0]:
-            m = 3 * (w + k - 1)
-            for y in range(h):
-                for j in range(k):
-                    lines[j] = y + pad - r + j
-                vertical(win, lines, 3 * (pad - r), tp, colf[:m])
-                horizontal(colf[:m], tp, accf, src[y, : 3 * w])
+        if gauss:
+            gaussian_window(win_buf, wide, h, w, pad - r, tp, colf, accf, srcf)
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):
-            srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
+            if gauss:
+                srow = srcf[y * wide : y * wide + 3 * w]
+            elif k:
+                srow = src[y, : 3 * w]
+            else:
+                srow = win[y + pad, 3 * pad : 3 * (pad + w)]
             max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], d[y + 1, 1 : w + 1])
         _above(d_buf[:n_px], cut, a_buf[:n_px])  # (the frame set after)
         _open3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], h, w)  # -> a

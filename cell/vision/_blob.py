@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from itertools import accumulate
 
 import cv2
 import numpy as np
@@ -41,26 +40,27 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
     (RETR_CCOMP), each with its holes (children of at least 6 points): contour
     ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
     bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all contours are
-    computed at once (:func:`outline_normals_many`)."""
-    members, shifts, hole = [], [], []  # each blob's outline, then its holes
-    for i, off in zip(outer, offsets, strict=True):
-        members.append(contours[i])
-        shifts.append(off)
-        hole.append(False)
+    computed at once (:func:`_normals`)."""
+    members, meta = [], []  # each blob's outline, then its holes; (length, hole, shift)
+    for i, (sx, sy) in zip(outer, offsets, strict=True):
+        c = contours[i]
+        members.append(c)
+        meta.append((len(c), 0, sx, sy))
         j = hier[i][2]
         while j != -1:
-            if len(contours[j]) >= 6:
-                members.append(contours[j])
-                shifts.append(off)
-                hole.append(True)
+            c = contours[j]
+            if len(c) >= 6:
+                members.append(c)
+                meta.append((len(c), 1, sx, sy))
             j = hier[j][0]
-    lengths = [len(m) for m in members]
-    outline, normals = outline_normals_many(np.concatenate(members).reshape(-1, 2),
-                                            np.array(lengths), np.array(hole), np.array(shifts))
-    ends = list(accumulate(lengths))
-    pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
+    outline, normals = np.empty((2, sum(m[0] for m in meta), 2))
+    _normals(np.concatenate(members).reshape(-1, 2), np.array(meta, np.int64), outline,
+             normals)
     blobs: list[Blob] = []
-    for is_hole, piece in zip(hole, pieces, strict=True):
+    start = 0
+    for n, is_hole, _, _ in meta:
+        piece = outline[start : start + n], normals[start : start + n]
+        start += n
         if is_hole:
             blobs[-1].holes.append(piece)
         else:
@@ -96,36 +96,31 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     return p + 0.5 * n, n
 
 
-def outline_normals_many(pts: np.ndarray, lengths: np.ndarray, hole: np.ndarray,
-                         shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`outline_normals` of many contours at once (compiled): ``pts`` (M, 2) int32
-    pixels, the contours one after another, each moved by its ``shifts`` ((n, 2) int)
-    first, ``lengths`` (n,) their point counts (at least 1), ``hole`` (n,) bool which
-    of them are holes. The tangent at point i of a
-    contour of k points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
+@njit(cache=True)
+def _normals(pts, meta, out, nrm):  # pragma: no cover (compiled)
+    """:func:`outline_normals` of many contours at once: ``out``, ``nrm`` (M, 2) float64
+    of ``pts`` (M, 2) int32 pixels, the contours one after another, described by the
+    rows of ``meta`` (n, 4) int64: point count (at least 1), whether a hole (0/1), and
+    the shift (x, y) each is moved by first. The tangent at point i of a contour of k
+    points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
     (findContours traces outer boundaries one way and holes the other) is the sign of
     its area (shoelace, as ``cv2.contourArea(oriented=True)``, exact on pixels)."""
-    out = np.empty((len(pts), 2))
-    nrm = np.empty((len(pts), 2))
-    _normals(np.ascontiguousarray(pts, dtype=np.int32), np.asarray(lengths, np.int64),
-             np.asarray(hole, np.bool_), np.asarray(shifts, np.int64), out, nrm)
-    return out, nrm
-
-
-@njit(cache=True)
-def _normals(pts, lengths, hole, shifts, out, nrm):  # pragma: no cover (compiled)
     start = 0
-    for c in range(lengths.shape[0]):
-        k = lengths[c]
-        sx, sy = shifts[c, 0], shifts[c, 1]
+    for c in range(meta.shape[0]):
+        k, hole, sx, sy = meta[c, 0], meta[c, 1] != 0, meta[c, 2], meta[c, 3]
         area = 0  # twice the signed area
         for i in range(k):  # (moving a polygon keeps its area)
-            j = start + (i + 1) % k
+            j = start + i + 1 if i + 1 < k else start
             area += (np.int64(pts[start + i, 0]) * pts[j, 1]
                      - np.int64(pts[j, 0]) * pts[start + i, 1])
-        sign = -1.0 if (area < 0) != hole[c] else 1.0  # t turned by +90 deg where -1
+        sign = -1.0 if (area < 0) != hole else 1.0  # t turned by +90 deg where -1
         for i in range(k):
-            a, b = start + (i + 2) % k, start + (i - 2) % k
+            a, b = i + 2, i - 2  # (i + 2) mod k, (i - 2) mod k
+            while a >= k:
+                a -= k
+            while b < 0:
+                b += k
+            a, b = start + a, start + b
             tx, ty = float(pts[a, 0] - pts[b, 0]), float(pts[a, 1] - pts[b, 1])
             norm = max(math.sqrt(tx * tx + ty * ty), 1e-9)
             nx, ny = sign * ty / norm, -sign * tx / norm

@@ -1,7 +1,6 @@
 """The cut of a long blob (a rail) into the parts touching it, against its definition in
 OpenCV calls: the long contour's filled region (``cv2.drawContours``) and the mask, then
-opened (``cv2.morphologyEx``, 3x3) and traced; and the compiled contour statistics of
-the refined blobs against ``cv2.contourArea`` and ``cv2.boundingRect``."""
+opened (``cv2.morphologyEx``, 3x3) and traced."""
 
 from __future__ import annotations
 
@@ -71,16 +70,3 @@ def test_rail_cut_is_the_fill_and_opening_of_opencv():
         for a, b in zip(got, ref, strict=True):
             assert np.array_equal(a, b)
 
-
-def test_contour_stats_are_opencvs_area_and_bounding_box():
-    from cell.vision._blob import contour_stats
-
-    for seed in range(6):
-        mask = _scene(seed)
-        cs, _ = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-        stats = contour_stats(np.concatenate(cs).reshape(-1, 2),
-                              np.array([len(c) for c in cs], np.int64))
-        for c, (x_first, area2, x0, y0, x1, y1) in zip(cs, stats.tolist(), strict=True):
-            assert x_first == c[0, 0, 0]
-            assert area2 / 2 == cv2.contourArea(c)
-            assert (x0, y0, x1 - x0 + 1, y1 - y0 + 1) == cv2.boundingRect(c)

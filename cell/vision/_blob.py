@@ -214,7 +214,7 @@ def contour_stats(pts, lengths):  # pragma: no cover (compiled)
         x0, y0 = np.int64(pts[start, 0]), np.int64(pts[start, 1])
         x1, y1 = x0, y0
         for i in range(k):
-            j = start + (i + 1) % k
+            j = start + i + 1 if i + 1 < k else start
             px, py = np.int64(pts[start + i, 0]), np.int64(pts[start + i, 1])
             area += px * pts[j, 1] - np.int64(pts[j, 0]) * py
             x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)

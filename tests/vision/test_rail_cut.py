@@ -22,7 +22,7 @@ def _reference(view: FrameView, contours, hier, offset, *, cut: bool):
         if bw * bh < 5 or 4 * cv2.contourArea(c) < view.min_px:
             continue
         if 2 * max(bw, bh) <= view.max_px:
-            yield c + offset if offset != (0, 0) else c
+            yield (c + offset if offset != (0, 0) else c), (x + offset[0], y + offset[1], bw, bh)
         elif cut and min(bw, bh) >= 8:
             ox, oy = offset[0] + x, offset[1] + y
             sub = np.zeros((bh, bw), np.uint8)
@@ -67,6 +67,6 @@ def test_rail_cut_is_the_fill_and_opening_of_opencv():
         got = list(_part_contours(view, cs, hr[0].tolist(), (0, 0), cut=True))
         ref = list(_reference(view, cs, hr[0].tolist(), (0, 0), cut=True))
         assert len(got) == len(ref) and len(ref) >= 4
-        for a, b in zip(got, ref, strict=True):
-            assert np.array_equal(a, b)
+        for (a, box_a), (b, box_b) in zip(got, ref, strict=True):
+            assert np.array_equal(a, b) and box_a == box_b == cv2.boundingRect(b)
 

@@ -20,6 +20,7 @@ from bisect import bisect_right
 import numpy as np
 from numba import njit
 
+from cell.vision._mask_kernel import above, and_above, frame, max3, open3
 from cell.vision._segment_kernel import (
     border,
     interpolate_x,
@@ -136,8 +137,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
             else:
                 srow = win[y + pad, 3 * pad : 3 * (pad + w)]
             max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], d[y + 1, 1 : w + 1])
-        _above(d_buf[:n_px], cut, a_buf[:n_px])  # (the frame set after)
-        _open3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], h, w)  # -> a
+        above(d_buf[:n_px], cut, a_buf[:n_px])  # (the frame set after)
+        open3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], h, w)  # -> a
         _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, near_tmp, near_win)
         hist[:] = 0
         n = 0
@@ -156,12 +157,12 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         if n > 0:
             again = max(level, edge * upper_median(hist, n))
         again_cut = min(np.int64(np.floor(again)), 255)
-        _frame(a, h, w, 0)
-        _max3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], w + 2)  # b: the own part dilated
-        _and_above(d_buf[:n_px], again_cut, b_buf[:n_px])
+        frame(a, h, w, 0)
+        max3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], w + 2)  # b: the own part dilated
+        and_above(d_buf[:n_px], again_cut, b_buf[:n_px])
         if keep < 1:
             drop_shadow(b, win, pad, bg, h, w, keep, sums)
-        _open3(b_buf[:n_px], a_buf[:n_px], tmp[:n_px], h, w)  # -> b
+        open3(b_buf[:n_px], a_buf[:n_px], tmp[:n_px], h, w)  # -> b
         for y in range(h):
             brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
             for x in range(w):
@@ -256,68 +257,3 @@ def drop_shadow(b, win, pad, bg, h, w, keep, sums):  # pragma: no cover (compile
                 m2 = (2 * (np.int64(col[3 * x + 2]) + col[3 * x + 5] + col[3 * x + 8]) + 9) // 18
                 if is_shadow(m0, m1, m2, grow[3 * x], grow[3 * x + 1], grow[3 * x + 2], keep):
                     brow[x + 1] = 0
-
-
-@njit(cache=True)
-def _frame(m, h, w, value):  # pragma: no cover (compiled)
-    """Set the one-pixel frame around the (h, w) window of padded mask ``m``."""
-    for x in range(w + 2):
-        m[0, x] = value
-        m[h + 1, x] = value
-    for y in range(h + 2):
-        m[y, 0] = value
-        m[y, w + 1] = value
-
-
-@njit(cache=True)
-def _above(d, level, out):  # pragma: no cover (compiled)
-    """``out`` = ``d`` > ``level``, over whole flat arrays."""
-    for e in range(d.shape[0]):
-        out[e] = d[e] > level
-
-
-@njit(cache=True)
-def _and_above(d, level, out):  # pragma: no cover (compiled)
-    """``out`` &= ``d`` > ``level``, over whole flat arrays."""
-    for e in range(d.shape[0]):
-        out[e] = out[e] & (d[e] > level)
-
-
-@njit(cache=True)
-def _min3(src, dst, tmp, wide):  # pragma: no cover (compiled)
-    """``dst``: the minimum of 0/1 ``src`` over each pixel's 3x3 neighbourhood, on the
-    rows of ``wide`` pixels of flat arrays, at every pixel not on the first or last row
-    or column (what those get is not a minimum); ``tmp`` scratch."""
-    n = src.shape[0]
-    s0, s1, s2, t = src[: n - 2], src[1 : n - 1], src[2:], tmp[1 : n - 1]
-    for e in range(n - 2):  # along the rows (across their ends too: unused)
-        t[e] = min(min(s0[e], s1[e]), s2[e])
-    m = n - 2 * wide
-    t0, t1, t2, out = tmp[:m], tmp[wide : wide + m], tmp[2 * wide :], dst[wide : wide + m]
-    for e in range(m):
-        out[e] = min(min(t0[e], t1[e]), t2[e])
-
-
-@njit(cache=True)
-def _max3(src, dst, tmp, wide):  # pragma: no cover (compiled)
-    """As :func:`_min3`, the maximum."""
-    n = src.shape[0]
-    s0, s1, s2, t = src[: n - 2], src[1 : n - 1], src[2:], tmp[1 : n - 1]
-    for e in range(n - 2):
-        t[e] = max(max(s0[e], s1[e]), s2[e])
-    m = n - 2 * wide
-    t0, t1, t2, out = tmp[:m], tmp[wide : wide + m], tmp[2 * wide :], dst[wide : wide + m]
-    for e in range(m):
-        out[e] = max(max(t0[e], t1[e]), t2[e])
-
-
-@njit(cache=True)
-def _open3(m, work, tmp, h, w):  # pragma: no cover (compiled)
-    """3x3 opening of the (h, w) window of 0/1 mask ``m`` (flat, rows of w + 2 with a
-    one-pixel frame), in place; what lies beyond the window counts for neither erosion
-    nor dilation. The frame of ``m`` is left undefined."""
-    wide = w + 2
-    _frame(m.reshape((h + 2, wide)), h, w, 1)
-    _min3(m, work, tmp, wide)
-    _frame(work.reshape((h + 2, wide)), h, w, 0)
-    _max3(work, m, tmp, wide)

@@ -23,6 +23,7 @@ from cell.vision._material_kernel import (
     N_STATS,
     SUPPORT,
     first_reaching,
+    measure,
     patch_statistics,
     statistics,
 )
@@ -148,11 +149,16 @@ def _frame(img, fg, boxes, masks, level, stats, belts, state):  # pragma: no cov
         if belt[_FREE] >= _MIN_FREE and min(belt[1], belt[2], belt[3]) >= level:
             continue
         state[i] = MEASURED if belt[_FREE] >= _MIN_FREE else NO_BELT
-        # the interior's box and the filters' support, clipped to the ROI (which here is
-        # to the sub-box wherever the sub-box does not reach the ROI's edge)
-        ia, ja = max(ia - p, 0), max(ja - p, _PAD)
-        ib, jb = min(ib + p, sh), min(jb + p, sw + _PAD)
-        statistics(img, y0 + ya, x0 + xa - _PAD, sel, ia, ib, ja, jb, stats[i])
+        # the filters read the interior's box and SUPPORT px around it, mirrored beyond
+        # the ROI (here: beyond the sub-box, which stops short of it only where the mask
+        # does); inside it they read the frame itself
+        y, x = y0 + ya, x0 + xa - _PAD
+        if ia >= p and ja >= _PAD + p and ib + p <= sh and jb + p <= sw + _PAD:
+            measure(img.reshape(-1), 3 * (y * img.shape[1] + x), 3 * img.shape[1], sel,
+                    ia, ib, ja, jb, stats[i])
+        else:
+            statistics(img, y, x, sel, max(ia - p, 0), min(ib + p, sh), max(ja - p, _PAD),
+                       min(jb + p, sw + _PAD), stats[i])
 
 
 @njit(cache=True)

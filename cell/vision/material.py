@@ -32,10 +32,9 @@ from cell.vision._material_kernel import (
     MEAN,
     UNCLIPPED,
     N,
-    metal_prior,
     patch_statistics,
 )
-from cell.vision._material_labels import grain_rows, metal_odds
+from cell.vision._material_labels import grain_rows, metal_odds, metal_prior
 
 __all__ = ["MaterialFeatures", "classify_material", "classify_materials",
            "features_from_statistics", "material_features", "materials_from_statistics"]

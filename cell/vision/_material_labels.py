@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from cell.vision._material_kernel import KEPT, NORM, S_NOISE2, S_PAR, N
+from cell.vision._material_kernel import KEPT, MEAN, NORM, S_NOISE2, S_PAR, N
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -132,3 +132,21 @@ def _numpy_sum(v):  # pragma: no cover (compiled)
     for i in range(top, n):
         s += v[i]
     return s
+
+
+@njit(cache=True)
+def metal_probabilities(stats, belts, belt_rgb, noise_sigma, two, grain_metal, grain_z_min,
+                        finishes, metal, sigma2, out):  # pragma: no cover (compiled)
+    """P(metal) (P,) of parts from their statistics rows (P, N_STATS) and the belt's colour
+    next to each (P, 3): the white-balanced albedo (mean colour over the belt's, at least
+    1, times its reflectance ``belt_rgb``), :func:`grain_rows`, :func:`metal_prior` and
+    :func:`metal_odds` in one call."""
+    p = stats.shape[0]
+    albedo = np.empty((p, 3))
+    for i in range(p):
+        for c in range(3):
+            albedo[i, c] = stats[i, MEAN + c] / max(belts[i, c], 1.0) * belt_rgb[c]
+    grain = np.empty((p, 4))
+    grain_rows(stats, noise_sigma, two, grain)
+    metal_odds(albedo, grain, metal_prior(albedo, finishes, metal, sigma2), grain_metal,
+               grain_z_min, out)

@@ -40,26 +40,27 @@ def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
     (RETR_CCOMP), each with its holes (children of at least 6 points): contour
     ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
     bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all contours are
-    computed at once (:func:`outline_normals_many`)."""
-    members, shifts, hole = [], [], []  # each blob's outline, then its holes
-    for i, off in zip(outer, offsets, strict=True):
-        members.append(contours[i])
-        shifts.append(off)
-        hole.append(False)
+    computed at once (:func:`_normals`)."""
+    members, meta = [], []  # each blob's outline, then its holes; (length, hole, shift)
+    for i, (sx, sy) in zip(outer, offsets, strict=True):
+        c = contours[i]
+        members.append(c)
+        meta.append((len(c), 0, sx, sy))
         j = hier[i][2]
         while j != -1:
-            if len(contours[j]) >= 6:
-                members.append(contours[j])
-                shifts.append(off)
-                hole.append(True)
+            c = contours[j]
+            if len(c) >= 6:
+                members.append(c)
+                meta.append((len(c), 1, sx, sy))
             j = hier[j][0]
-    lengths = [len(m) for m in members]
-    outline, normals = outline_normals_many(np.concatenate(members).reshape(-1, 2),
-                                            np.array(lengths), np.array(hole), np.array(shifts))
-    ends = np.cumsum(lengths).tolist()
-    pieces = [(outline[i:j], normals[i:j]) for i, j in zip([0, *ends[:-1]], ends, strict=True)]
+    outline, normals = np.empty((2, sum(m[0] for m in meta), 2))
+    _normals(np.concatenate(members).reshape(-1, 2), np.array(meta, np.int64), outline,
+             normals)
     blobs: list[Blob] = []
-    for is_hole, piece in zip(hole, pieces, strict=True):
+    start = 0
+    for n, is_hole, _, _ in meta:
+        piece = outline[start : start + n], normals[start : start + n]
+        start += n
         if is_hole:
             blobs[-1].holes.append(piece)
         else:
@@ -95,36 +96,31 @@ def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndar
     return p + 0.5 * n, n
 
 
-def outline_normals_many(pts: np.ndarray, lengths: np.ndarray, hole: np.ndarray,
-                         shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`outline_normals` of many contours at once (compiled): ``pts`` (M, 2) int32
-    pixels, the contours one after another, each moved by its ``shifts`` ((n, 2) int)
-    first, ``lengths`` (n,) their point counts (at least 1), ``hole`` (n,) bool which
-    of them are holes. The tangent at point i of a
-    contour of k points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
+@njit(cache=True)
+def _normals(pts, meta, out, nrm):  # pragma: no cover (compiled)
+    """:func:`outline_normals` of many contours at once: ``out``, ``nrm`` (M, 2) float64
+    of ``pts`` (M, 2) int32 pixels, the contours one after another, described by the
+    rows of ``meta`` (n, 4) int64: point count (at least 1), whether a hole (0/1), and
+    the shift (x, y) each is moved by first. The tangent at point i of a contour of k
+    points is p[(i + 2) mod k] - p[(i - 2) mod k]; which way a contour runs
     (findContours traces outer boundaries one way and holes the other) is the sign of
     its area (shoelace, as ``cv2.contourArea(oriented=True)``, exact on pixels)."""
-    out = np.empty((len(pts), 2))
-    nrm = np.empty((len(pts), 2))
-    _normals(np.ascontiguousarray(pts, dtype=np.int32), np.asarray(lengths, np.int64),
-             np.asarray(hole, np.bool_), np.asarray(shifts, np.int64), out, nrm)
-    return out, nrm
-
-
-@njit(cache=True)
-def _normals(pts, lengths, hole, shifts, out, nrm):  # pragma: no cover (compiled)
     start = 0
-    for c in range(lengths.shape[0]):
-        k = lengths[c]
-        sx, sy = shifts[c, 0], shifts[c, 1]
+    for c in range(meta.shape[0]):
+        k, hole, sx, sy = meta[c, 0], meta[c, 1] != 0, meta[c, 2], meta[c, 3]
         area = 0  # twice the signed area
         for i in range(k):  # (moving a polygon keeps its area)
-            j = start + (i + 1) % k
+            j = start + i + 1 if i + 1 < k else start
             area += (np.int64(pts[start + i, 0]) * pts[j, 1]
                      - np.int64(pts[j, 0]) * pts[start + i, 1])
-        sign = -1.0 if (area < 0) != hole[c] else 1.0  # t turned by +90 deg where -1
+        sign = -1.0 if (area < 0) != hole else 1.0  # t turned by +90 deg where -1
         for i in range(k):
-            a, b = start + (i + 2) % k, start + (i - 2) % k
+            a, b = i + 2, i - 2  # (i + 2) mod k, (i - 2) mod k
+            while a >= k:
+                a -= k
+            while b < 0:
+                b += k
+            a, b = start + a, start + b
             tx, ty = float(pts[a, 0] - pts[b, 0]), float(pts[a, 1] - pts[b, 1])
             norm = max(math.sqrt(tx * tx + ty * ty), 1e-9)
             nx, ny = sign * ty / norm, -sign * tx / norm
@@ -161,19 +157,25 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
     pixels (uint8 0/255, its window's shape) as ``roi``."""
     h, w = shape
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = [mos.which(int(cs[j][0, 0, 0])) for j in outer]
+    if not outer:
+        return []
+    lengths = [len(cs[j]) for j in outer]
+    stats = contour_stats(np.concatenate([cs[j] for j in outer]).reshape(-1, 2),
+                          np.array(lengths, np.int64)).tolist()
+    box_of = [mos.which(st[0]) for st in stats]
     n_outer = [0] * len(mos.boxes)
     for k in box_of:
         n_outer[k] += 1
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     labels: dict[int, np.ndarray] = {}
-    for j, k in sorted(zip(outer, box_of, strict=True), key=lambda jk: jk[1]):
-        cj = cs[j]
-        if len(cj) < 8 or cv2.contourArea(cj) < min_area:
+    order = sorted(range(len(outer)), key=box_of.__getitem__)
+    for o in order:
+        j, k, (_, area2, bx, by, bx1, by1) = outer[o], box_of[o], stats[o]
+        if lengths[o] < 8 or area2 < 2 * min_area:
             continue  # a fragment (at least 3 px wide after the opening) far below a part
         x0, y0 = mos.boxes[k][:2]
         mx, my = mos.at_list[k]
-        bx, by, bbw, bbh = cv2.boundingRect(cj)
+        bbw, bbh = bx1 - bx + 1, by1 - by + 1
         bx, by = bx - mx + x0, by - my + y0
         picks.append(j)
         offsets.append((x0 - mx, y0 - my))
@@ -186,7 +188,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
         else:  # this part's pixels only, not a neighbour's
             if k not in labels:
                 labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
-            px, py = int(cj[0, 0, 0]) - mx, int(cj[0, 0, 1]) - my
+            px, py = int(cs[j][0, 0, 0]) - mx, int(cs[j][0, 0, 1]) - my
             own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
         rois.append((x0, y0, own))
     if not picks:
@@ -195,6 +197,31 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int
     for blob, roi in zip(blobs, rois, strict=True):
         blob.roi = roi
     return blobs
+
+
+@njit(cache=True)
+def contour_stats(pts, lengths):  # pragma: no cover (compiled)
+    """(n, 6) int64: for each of n pixel contours laid one after another in ``pts``
+    (M, 2) int32 (``lengths`` (n,) points each, at least 1), the x of its first point,
+    twice its area (the shoelace formula's absolute value: ``2 cv2.contourArea``,
+    exact on pixels) and its bounding box's corners x0, y0, x1, y1 (inclusive:
+    ``cv2.boundingRect`` is (x0, y0, x1 - x0 + 1, y1 - y0 + 1))."""
+    out = np.empty((lengths.shape[0], 6), np.int64)
+    start = 0
+    for c in range(lengths.shape[0]):
+        k = lengths[c]
+        area = 0
+        x0, y0 = np.int64(pts[start, 0]), np.int64(pts[start, 1])
+        x1, y1 = x0, y0
+        for i in range(k):
+            j = start + i + 1 if i + 1 < k else start
+            px, py = np.int64(pts[start + i, 0]), np.int64(pts[start + i, 1])
+            area += px * pts[j, 1] - np.int64(pts[j, 0]) * py
+            x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+        out[c, 0], out[c, 1] = pts[start, 0], abs(area)
+        out[c, 2], out[c, 3], out[c, 4], out[c, 5] = x0, y0, x1, y1
+        start += k
+    return out
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

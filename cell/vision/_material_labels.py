@@ -1,8 +1,9 @@
 """Compiled grain features and material odds of every part of a frame (numba).
 
 :func:`grain_rows` turns pixel statistics rows (:mod:`cell.vision._material_kernel`) into
-(grain, grain_z, grain_visibility, even-light fraction), :func:`metal_odds` those and the
-albedo prior into each part's P(metal): the formulas of :mod:`cell.vision.material`
+(grain, grain_z, grain_visibility, even-light fraction), :func:`metal_prior` gives the
+albedo's P(metal) against the catalogue finishes, :func:`metal_odds` turns those two into
+each part's P(metal): the formulas of :mod:`cell.vision.material`
 (which documents them), in one call for all parts instead of a Python loop.
 
 Python's ``x ** 2`` of a float is libm's ``pow``, which rounds differently from
@@ -15,9 +16,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
-from cell.vision._material_kernel import KEPT, NORM, S_NOISE2, S_PAR, N
+from cell.vision._material_kernel import KEPT, MEAN, NORM, S_NOISE2, S_PAR, N
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -81,3 +83,70 @@ def metal_odds(albedo, grain, prior, grain_metal, grain_z_min, out):  # pragma: 
         elif lit and g < 0.45 * grain_metal and vis >= 6.0:
             odds *= 1.0 / GRAIN_ODDS
         out[i] = odds / (1 + odds)
+
+
+@njit(cache=True)
+def metal_prior(albedo, finishes, metal, sigma2):  # pragma: no cover (compiled)
+    """P(metal) (P,) of albedos (P, 3) from the finishes' albedos (K, 3) and whether each is
+    a metal (K,) bool: the share of the metals in the softmax of -d2 / 2, d2 the squared
+    distance over ``sigma2``; sums in numpy's order (``ndarray.sum``: pairwise in blocks
+    of 8), so the result is numpy's bit for bit."""
+    out = np.empty(albedo.shape[0])
+    n_k = finishes.shape[0]
+    d2 = np.empty(n_k)
+    w = np.empty(n_k)
+    metals = np.empty(n_k)
+    for q in range(albedo.shape[0]):
+        for k in range(n_k):
+            a = finishes[k, 0] - albedo[q, 0]
+            b = finishes[k, 1] - albedo[q, 1]
+            c = finishes[k, 2] - albedo[q, 2]
+            d2[k] = (a * a + b * b + c * c) / sigma2
+        low = d2.min()
+        m = 0
+        for k in range(n_k):
+            w[k] = math.exp(-(d2[k] - low) / 2)
+            if metal[k]:
+                metals[m] = w[k]
+                m += 1
+        out[q] = _numpy_sum(metals[:m]) / _numpy_sum(w)
+    return out
+
+
+@njit(cache=True)
+def _numpy_sum(v):  # pragma: no cover (compiled)
+    """``v.sum()`` of at most 128 values in numpy's order (pairwise_sum: under 8 values in
+    turn; else 8 running sums of every 8th value, added pairwise, then the rest in turn)."""
+    n = v.shape[0]
+    if n < 8:
+        s = -0.0
+        for i in range(n):
+            s += v[i]
+        return s
+    r = v[:8].copy()
+    top = n - n % 8
+    for i in range(8, top, 8):
+        for j in range(8):
+            r[j] += v[i + j]
+    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(top, n):
+        s += v[i]
+    return s
+
+
+@njit(cache=True)
+def metal_probabilities(stats, belts, belt_rgb, noise_sigma, two, grain_metal, grain_z_min,
+                        finishes, metal, sigma2, out):  # pragma: no cover (compiled)
+    """P(metal) (P,) of parts from their statistics rows (P, N_STATS) and the belt's colour
+    next to each (P, 3): the white-balanced albedo (mean colour over the belt's, at least
+    1, times its reflectance ``belt_rgb``), :func:`grain_rows`, :func:`metal_prior` and
+    :func:`metal_odds` in one call."""
+    p = stats.shape[0]
+    albedo = np.empty((p, 3))
+    for i in range(p):
+        for c in range(3):
+            albedo[i, c] = stats[i, MEAN + c] / max(belts[i, c], 1.0) * belt_rgb[c]
+    grain = np.empty((p, 4))
+    grain_rows(stats, noise_sigma, two, grain)
+    metal_odds(albedo, grain, metal_prior(albedo, finishes, metal, sigma2), grain_metal,
+               grain_z_min, out)

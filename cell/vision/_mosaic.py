@@ -20,6 +20,7 @@ from bisect import bisect_right
 import numpy as np
 from numba import njit
 
+from cell.vision._mask_kernel import above, and_above, frame, max3, open3
 from cell.vision._segment_kernel import (
     border,
     interpolate_x,
@@ -28,7 +29,7 @@ from cell.vision._segment_kernel import (
     max_diff,
     upper_median,
 )
-from cell.vision._smooth_kernel import box_row, horizontal, vertical
+from cell.vision._smooth_kernel import box_row, gaussian_window
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -92,51 +93,57 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         hmax = max(hmax, boxes[i, 3] - boxes[i, 1])
         wmax = max(wmax, boxes[i, 2] - boxes[i, 0])
         small = max(small, rows[1, boxes[i, 3] - 1] - rows[0, boxes[i, 1]] + 1)
-    win = np.empty((hmax + 2 * pad, (wmax + 2 * pad) * 3), np.uint8)
+    win_size = (hmax + 2 * pad) * (wmax + 2 * pad) * 3
+    win_buf = np.empty(win_size, np.uint8)  # (each window with its own row length)
     sums = np.empty((wmax + 2 * pad) * 3, np.uint16)
     acc = np.empty(wmax * 3, np.uint16)
-    colf = np.empty((wmax + 2 * pad) * 3, np.uint16)  # (Gaussian smoothing)
-    accf = np.empty(wmax * 3, np.int32)
+    gauss = k > 0 and taps.shape[0] > 0
+    colf = np.empty(win_size if gauss else 0, np.uint16)  # (Gaussian smoothing)
+    accf = np.empty(win_size if gauss else 0, np.int32)
+    srcf = np.empty(win_size if gauss else 0, np.uint8)
     tp = taps.astype(np.int32)
-    lines = np.empty(max(k, 1), np.int64)  # the window rows under the filter
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
     inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
-    d = np.empty((hmax, wmax), np.uint8)
     diff = np.empty(wmax * 3, np.uint8)
     near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
-    a = np.empty((hmax + 2, wmax + 2), np.uint8)  # masks with a one-pixel frame
-    b = np.empty((hmax + 2, wmax + 2), np.uint8)
-    tmp = np.empty((hmax + 2, wmax), np.uint8)
+    near_tmp = np.empty((hmax // 2 + 3, wmax // 2 + 1), np.uint8)
+    size = (hmax + 2) * (wmax + 2)  # d and the masks with a one-pixel frame, each window
+    d_buf, a_buf, b_buf, tmp = (np.empty(size, np.uint8), np.empty(size, np.uint8),
+                                np.empty(size, np.uint8), np.empty(size, np.uint8))
     hist = np.empty(256, np.int64)
     cut = np.int64(np.floor(level))
     for i in range(boxes.shape[0]):
         x0, y0, x1, y1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
         mx, my = at[i, 0], at[i, 1]
         h, w = y1 - y0, x1 - x0
+        n_px = (h + 2) * (w + 2)  # (the window's own row length, so that the mask
+        d = d_buf[:n_px].reshape((h + 2, w + 2))  # operations run over whole windows)
+        a = a_buf[:n_px].reshape((h + 2, w + 2))
+        b = b_buf[:n_px].reshape((h + 2, w + 2))
+        wide = 3 * (w + 2 * pad)
+        win = win_buf[: (h + 2 * pad) * wide].reshape((h + 2 * pad, wide))
         window(flat, x0, y0, h, w, pad, win)
-        if k and taps.shape[0]:
-            m = 3 * (w + k - 1)
-            for y in range(h):
-                for j in range(k):
-                    lines[j] = y + pad - r + j
-                vertical(win, lines, 3 * (pad - r), tp, colf[:m])
-                horizontal(colf[:m], tp, accf, src[y, : 3 * w])
+        if gauss:
+            gaussian_window(win_buf, wide, h, w, pad - r, tp, colf, accf, srcf)
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
         _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
         for y in range(h):
-            srow = src[y, : 3 * w] if k else win[y + pad, 3 * pad : 3 * (pad + w)]
-            drow, arow = d[y, :w], a[y + 1, 1 : w + 1]
-            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], drow)
-            for x in range(w):
-                arow[x] = drow[x] > cut
-        _open3(a, b, tmp, h, w)  # -> a
-        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, tmp, near_win)
+            if gauss:
+                srow = srcf[y * wide : y * wide + 3 * w]
+            elif k:
+                srow = src[y, : 3 * w]
+            else:
+                srow = win[y + pad, 3 * pad : 3 * (pad + w)]
+            max_diff(srow, bg[y, : 3 * w], diff[: 3 * w], d[y + 1, 1 : w + 1])
+        above(d_buf[:n_px], cut, a_buf[:n_px])  # (the frame set after)
+        open3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], h, w)  # -> a
+        _dilated(near, mx // 2, my // 2, (w + 1) // 2, (h + 1) // 2, near_tmp, near_win)
         hist[:] = 0
         n = 0
         for y in range(h):
-            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y, :w]
+            arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y + 1, 1 : w + 1]
             for x in range(w):
                 frow[x] |= 255 * arow[x]
             nrow = near_win[y // 2]
@@ -150,15 +157,12 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         if n > 0:
             again = max(level, edge * upper_median(hist, n))
         again_cut = min(np.int64(np.floor(again)), 255)
-        _frame(a, h, w, 0)
-        _max3(a, b, tmp, h, w)  # b: the own part dilated
-        for y in range(h):
-            brow, drow = b[y + 1, 1 : w + 1], d[y, :w]
-            for x in range(w):
-                brow[x] = brow[x] & (drow[x] > again_cut)
+        frame(a, h, w, 0)
+        max3(a_buf[:n_px], b_buf[:n_px], tmp[:n_px], w + 2)  # b: the own part dilated
+        and_above(d_buf[:n_px], again_cut, b_buf[:n_px])
         if keep < 1:
             drop_shadow(b, win, pad, bg, h, w, keep, sums)
-        _open3(b, a, tmp, h, w)  # -> b
+        open3(b_buf[:n_px], a_buf[:n_px], tmp[:n_px], h, w)  # -> b
         for y in range(h):
             brow, out = b[y + 1, 1 : w + 1], sub[my + y, mx : mx + w]
             for x in range(w):
@@ -253,48 +257,3 @@ def drop_shadow(b, win, pad, bg, h, w, keep, sums):  # pragma: no cover (compile
                 m2 = (2 * (np.int64(col[3 * x + 2]) + col[3 * x + 5] + col[3 * x + 8]) + 9) // 18
                 if is_shadow(m0, m1, m2, grow[3 * x], grow[3 * x + 1], grow[3 * x + 2], keep):
                     brow[x + 1] = 0
-
-
-@njit(cache=True)
-def _frame(m, h, w, value):  # pragma: no cover (compiled)
-    """Set the one-pixel frame around the (h, w) window of padded mask ``m``."""
-    for x in range(w + 2):
-        m[0, x] = value
-        m[h + 1, x] = value
-    for y in range(h + 2):
-        m[y, 0] = value
-        m[y, w + 1] = value
-
-
-@njit(cache=True)
-def _min3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
-    for y in range(h + 2):
-        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
-        for x in range(w):
-            t[x] = min(min(s0[x], s1[x]), s2[x])
-    for y in range(h):
-        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
-        for x in range(w):
-            out[x] = min(min(t0[x], t1[x]), t2[x])
-
-
-@njit(cache=True)
-def _max3(src, dst, tmp, h, w):  # pragma: no cover (compiled)
-    for y in range(h + 2):
-        s0, s1, s2, t = src[y, :w], src[y, 1 : w + 1], src[y, 2 : w + 2], tmp[y, :w]
-        for x in range(w):
-            t[x] = max(max(s0[x], s1[x]), s2[x])
-    for y in range(h):
-        t0, t1, t2, out = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], dst[y + 1, 1 : w + 1]
-        for x in range(w):
-            out[x] = max(max(t0[x], t1[x]), t2[x])
-
-
-@njit(cache=True)
-def _open3(m, work, tmp, h, w):  # pragma: no cover (compiled)
-    """3x3 opening of the (h, w) window of padded 0/1 mask ``m``, in place; what lies
-    beyond the window counts for neither erosion nor dilation."""
-    _frame(m, h, w, 1)
-    _min3(m, work, tmp, h, w)
-    _frame(work, h, w, 0)
-    _max3(work, m, tmp, h, w)

@@ -23,6 +23,7 @@ from cell.vision._material_kernel import (
     N_STATS,
     SUPPORT,
     first_reaching,
+    measure,
     patch_statistics,
     statistics,
 )
@@ -121,18 +122,25 @@ def _frame(img, fg, boxes, masks, level, stats, belts, state):  # pragma: no cov
     off = 0
     for i in range(boxes.shape[0]):
         x0, y0, h, w = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3]
-        roi = np.full((h, w + 2 * _PAD), 255, np.uint8)
-        src = masks[off:]
+        src = masks[off : off + h * w]
         off += h * w
-        for y in range(h):
-            row, dst = src[y * w :], roi[y, _PAD:]
-            for x in range(w):
+        # the erosion in the mask's bounding box and 2 px around it (clipped to the ROI):
+        # what lies further out is 0 and never reaches the interior
+        ya, yb, xa, xb = _extent(src, h, w)
+        if ya == yb:
+            continue
+        ya, yb, xa, xb = max(ya - 2, 0), min(yb + 2, h), max(xa - 2, 0), min(xb + 2, w)
+        sh, sw = yb - ya, xb - xa
+        roi = np.full((sh, sw + 2 * _PAD), 255, np.uint8)
+        for y in range(sh):
+            row, dst = src[(ya + y) * w + xa :], roi[y, _PAD:]
+            for x in range(sw):
                 dst[x] = row[x]
         sel = np.empty_like(roi)
         across = np.empty_like(roi)
-        n, ya, yb, xa, xb = _erode(roi, 2, across, sel)
+        n, ia, ib, ja, jb = _erode(roi, 2, across, sel)
         if n < 150:
-            n, ya, yb, xa, xb = _erode(roi, 1, across, sel)
+            n, ia, ib, ja, jb = _erode(roi, 1, across, sel)
             if n < 8:
                 continue
         belt = belts[i]
@@ -141,9 +149,39 @@ def _frame(img, fg, boxes, masks, level, stats, belts, state):  # pragma: no cov
         if belt[_FREE] >= _MIN_FREE and min(belt[1], belt[2], belt[3]) >= level:
             continue
         state[i] = MEASURED if belt[_FREE] >= _MIN_FREE else NO_BELT
-        ya, xa = max(ya - p, 0), max(xa - p, _PAD)
-        yb, xb = min(yb + p, h), min(xb + p, w + _PAD)
-        statistics(img, y0, x0 - _PAD, sel, ya, yb, xa, xb, stats[i])
+        # the filters read the interior's box and SUPPORT px around it, mirrored beyond
+        # the ROI (here: beyond the sub-box, which stops short of it only where the mask
+        # does); inside it they read the frame itself
+        y, x = y0 + ya, x0 + xa - _PAD
+        if ia >= p and ja >= _PAD + p and ib + p <= sh and jb + p <= sw + _PAD:
+            measure(img.reshape(-1), 3 * (y * img.shape[1] + x), 3 * img.shape[1], sel,
+                    ia, ib, ja, jb, stats[i])
+        else:
+            statistics(img, y, x, sel, max(ia - p, 0), min(ib + p, sh), max(ja - p, _PAD),
+                       min(jb + p, sw + _PAD), stats[i])
+
+
+@njit(cache=True)
+def _extent(mask, h, w):  # pragma: no cover (compiled)
+    """The bounding box of the nonzero pixels of ``mask`` (h * w flattened): rows
+    [ya, yb), columns [xa, xb); all 0 when there are none."""
+    cols = np.zeros(w, np.uint8)
+    ya, yb = h, 0
+    for y in range(h):
+        row = mask[y * w : (y + 1) * w]
+        top = np.uint8(0)
+        for x in range(w):
+            top = max(top, row[x])
+            cols[x] = max(cols[x], row[x])
+        if top:
+            ya, yb = min(ya, y), y + 1
+    if yb == 0:
+        return 0, 0, 0, 0
+    xa, xb = w, 0
+    for x in range(w):
+        if cols[x]:
+            xa, xb = min(xa, x), x + 1
+    return ya, yb, xa, xb
 
 
 @njit(cache=True)
@@ -216,20 +254,25 @@ def _erode(roi, r, across, out):  # pragma: no cover (compiled)
 
 @njit(cache=True)
 def _belt(img, fg, xa, ya, xb, yb, out):  # pragma: no cover (compiled)
-    """Free pixels of the window and, from ``_MIN_FREE`` of them, their mean colour."""
+    """Free pixels of the window and, from ``_MIN_FREE`` of them, their mean colour: sums
+    per column in 16 bits (at most 256 rows of 255 at a time), so they vectorise."""
     pix, free = img.reshape(-1), fg.reshape(-1)
     stride, w = img.shape[1], xb - xa
+    a0, a1, a2, c = (np.zeros(w, np.uint16), np.zeros(w, np.uint16), np.zeros(w, np.uint16),
+                     np.zeros(w, np.uint16))
     s0 = s1 = s2 = n = 0
-    for y in range(ya, yb):
-        row, f = pix[3 * (y * stride + xa) :], free[y * stride + xa :]
-        t0 = t1 = t2 = c = np.uint32(0)
+    for y0 in range(ya, yb, 256):
+        for y in range(y0, min(y0 + 256, yb)):
+            row, f = pix[3 * (y * stride + xa) :], free[y * stride + xa :]
+            for x in range(w):
+                m = np.uint8(0) - np.uint8(f[x] != 255)
+                a0[x] += row[3 * x] & m
+                a1[x] += row[3 * x + 1] & m
+                a2[x] += row[3 * x + 2] & m
+                c[x] += m & 1
         for x in range(w):
-            m = np.uint32(f[x] != 255)
-            t0 += row[3 * x] * m
-            t1 += row[3 * x + 1] * m
-            t2 += row[3 * x + 2] * m
-            c += m
-        s0, s1, s2, n = s0 + t0, s1 + t1, s2 + t2, n + c
+            s0, s1, s2, n = s0 + a0[x], s1 + a1[x], s2 + a2[x], n + c[x]
+            a0[x] = a1[x] = a2[x] = c[x] = 0
     out[_FREE] = n
     if n >= _MIN_FREE:
         scale = 1.0 / n

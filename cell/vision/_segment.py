@@ -213,9 +213,17 @@ def find_blobs(view: FrameView) -> list[Blob]:
     return _refine(view, parts) if parts else []
 
 
-def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, cut: bool):
-    """Half-scale outer contours that may be parts (in the mask's coordinates). A contour
-    longer than any part is opened (3x3) and its pieces taken instead, once (``cut``)."""
+def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *,
+                   cut: bool, within: np.ndarray | None = None):
+    """Half-scale outer contours that may be parts (in the mask's coordinates), each with
+    its bounding box (x, y, w, h). A contour longer than any part is opened (3x3) and its
+    pieces taken instead, once (``cut``).
+
+    The opening is that of the mask in the long contour's box: other blobs there are
+    apart from it (not 8-adjacent), so they open apart and trace apart, and the pieces
+    are the same, in the same order, as those of the contour's filled region alone;
+    the others' pieces are told by a point outside the contour (``within``: the
+    contour in the pieces' coordinates)."""
     for i, c in enumerate(contours):
         if len(c) < 12 or hier[i][3] != -1:
             continue  # the smallest part's outline is some 80 px long (40 at half scale)
@@ -223,30 +231,35 @@ def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *, 
         if bw * bh < 5 or 4 * cv2.contourArea(c) < view.min_px:
             continue
         if 2 * max(bw, bh) <= view.max_px:
-            yield c + offset if offset != (0, 0) else c
+            if within is not None and cv2.pointPolygonTest(
+                    within, (float(c[0, 0, 0]), float(c[0, 0, 1])), False) < 0:
+                continue  # a piece of another blob in the long contour's box
+            if offset == (0, 0):
+                yield c, (x, y, bw, bh)
+            else:
+                yield c + offset, (x + offset[0], y + offset[1], bw, bh)
         elif cut and min(bw, bh) >= 8:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
-            sub = np.zeros((bh, bw), np.uint8)
-            cv2.drawContours(sub, [c], -1, 255, -1, offset=(-x, -y))
-            sub = cv2.bitwise_and(sub, view.mask[oy : oy + bh, ox : ox + bw])
-            sub = cv2.morphologyEx(sub, cv2.MORPH_OPEN, _K3)
+            sub = cv2.morphologyEx(view.mask[oy : oy + bh, ox : ox + bw], cv2.MORPH_OPEN, _K3)
             cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
             if hr is not None:
-                yield from _part_contours(view, cs, hr[0].tolist(), (ox, oy), cut=False)
+                yield from _part_contours(view, cs, hr[0].tolist(), (ox, oy), cut=False,
+                                          within=c - (x, y))
 
 
-def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
-    """The blobs of half-scale contours ``parts`` at full scale, each from its own box
-    (and 8 px around it) as if alone: the difference there thresholded at ``edge_level``
-    times the blob's median contrast (at least the frame's threshold), less shadow, near
-    the contour's region (compiled: :func:`~cell.vision._mosaic.refine`). The results
-    lie side by side in a :class:`~cell.vision._mosaic.Mosaic`, traced at once."""
+def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, int]]]
+            ) -> list[Blob]:
+    """The blobs of half-scale contours ``parts`` (with their bounding boxes) at full
+    scale, each from its own box (and 8 px around it) as if alone: the difference there
+    thresholded at ``edge_level`` times the blob's median contrast (at least the frame's
+    threshold), less shadow, near the contour's region (compiled:
+    :func:`~cell.vision._mosaic.refine`). The results lie side by side in a
+    :class:`~cell.vision._mosaic.Mosaic`, traced at once."""
     st = view.settings
     h, w = view.fg.shape
     hh, hw = view.mask.shape
     boxes, corners = [], []  # full-scale windows; their half-scale corners
-    for c in parts:
-        x, y, bw, bh = cv2.boundingRect(c)
+    for _, (x, y, bw, bh) in parts:
         hx0, hy0 = max(x - 4, 0), max(y - 4, 0)  # the box and 4 px, half scale
         boxes.append((2 * hx0, 2 * hy0, min(2 * (x + bw + 4), 2 * hw, w),
                       min(2 * (y + bh + 4), 2 * hh, h)))
@@ -254,7 +267,7 @@ def _refine(view: FrameView, parts: list[np.ndarray]) -> list[Blob]:
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
-    for c, (mx, my), (hx0, hy0) in zip(parts, mos.at_list, corners, strict=True):
+    for (c, _), (mx, my), (hx0, hy0) in zip(parts, mos.at_list, corners, strict=True):
         cv2.drawContours(near, [c], 0, 1, -1, offset=(mx // 2 + 1 - hx0, my // 2 + 1 - hy0))
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]

@@ -63,6 +63,31 @@ def vertical(src, rows, lo, taps, col):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def gaussian_window(win, wide, h, w, o, taps, col, acc, out):  # pragma: no cover (compiled)
+    """``out`` (flat, rows of ``wide``): the window of flat ``win`` (rows of ``wide``
+    RGB values, the window's pixels from ``o + k // 2`` px in) smoothed by the
+    separable filter ``taps`` (k,) int32 (:func:`vertical`, then
+    :func:`horizontal`), pixel (y, x) at ``out[y wide + 3 x]``. Both passes run over
+    the whole window at once, across the rows' ends (what lands there is unused);
+    ``col`` (uint16) and ``acc`` (int32) scratch."""
+    k = taps.shape[0]
+    r = k // 2
+    n_out = (h - 1) * wide + 3 * w
+    n = n_out + 3 * (k - 1)
+    base = o * wide + 3 * o
+    c = col[:n]
+    d = min(r, 1)  # (k = 1: the centre alone)
+    mid = win[base + r * wide : base + r * wide + n]
+    _weigh(mid, win[base + (r - d) * wide : base + (r - d) * wide + n],
+           win[base + (r + d) * wide : base + (r + d) * wide + n], taps[r],
+           taps[r - 1] if r else np.int32(0), c)
+    for j in range(r - 1):  # the pairs further out
+        _add_pair(win[base + j * wide : base + j * wide + n],
+                  win[base + (k - 1 - j) * wide : base + (k - 1 - j) * wide + n], taps[j], c)
+    horizontal(c, taps, acc, out[:n_out])
+
+
+@njit(cache=True)
 def _round_pair(acc, a, b, t, out):  # pragma: no cover (compiled)
     """``out`` = (acc + ``t`` (a + b) + 32768) >> 16: the 1/65536 sums rounded."""
     for e in range(out.shape[0]):

@@ -32,10 +32,14 @@ from cell.vision._material_kernel import (
     MEAN,
     UNCLIPPED,
     N,
-    metal_prior,
     patch_statistics,
 )
-from cell.vision._material_labels import grain_rows, metal_odds
+from cell.vision._material_labels import (
+    grain_rows,
+    metal_odds,
+    metal_prior,
+    metal_probabilities,
+)
 
 __all__ = ["MaterialFeatures", "classify_material", "classify_materials",
            "features_from_statistics", "material_features", "materials_from_statistics"]
@@ -159,8 +163,13 @@ def materials_from_statistics(
 ) -> list[tuple[str, float]]:
     """:func:`classify_materials` of :func:`features_from_statistics` (arguments as
     there), without building the features."""
-    albedo = _albedo(stats[:, MEAN : MEAN + 3], belt_rgb_seen, belt_rgb)
-    return _labels(albedo, _grain(stats, noise_sigma), grain_metal, grain_z_min, albedo_sigma)
+    p = np.empty(len(stats))
+    metal_probabilities(np.ascontiguousarray(stats, dtype=np.float64),
+                        np.ascontiguousarray(belt_rgb_seen, dtype=np.float64),
+                        np.asarray(belt_rgb, dtype=np.float64), float(noise_sigma), 2.0,
+                        float(grain_metal), float(grain_z_min), _FINISH_ALBEDO, _FINISH_METAL,
+                        albedo_sigma**2, p)
+    return [("metal", q) if q >= 0.5 else ("plastic", 1 - q) for q in p.tolist()]
 
 
 def _albedo(means: np.ndarray, belt_rgb_seen: np.ndarray, belt_rgb: tuple[float, ...]):

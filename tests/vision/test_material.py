@@ -221,3 +221,52 @@ def test_weak_grain_counts_only_with_strong_evidence_on_an_evenly_lit_surface():
     assert classify_material(shaded, backlit=False, **OPTS)[0] == "plastic"
     faint = _features(grain, z_min)  # weak grain needs more than grain_z_min
     assert classify_material(faint, backlit=False, **OPTS)[0] == "plastic"
+
+
+def test_frame_statistics_equal_per_part_opencv():
+    """Every part of a frame in one pass: the erosion (cv2.erode, 5x5 or 3x3), the belt's
+    mean colour (free pixels around the ROI) and the interior's statistics equal those
+    computed part by part with OpenCV and patch_statistics."""
+    import cv2
+
+    from cell.vision._material_kernel import patch_statistics
+    from cell.vision._part_material import MEASURED, NO_BELT, frame_statistics
+
+    rng = np.random.default_rng(5)
+    for _ in range(60):
+        img = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+        img[rng.random((60, 80)) < 0.5] //= 4
+        fg = np.where(rng.random((60, 80)) < rng.uniform(0.0, 1.0), 255, 0).astype(np.uint8)
+        boxes, masks, want = [], [], []
+        for _ in range(rng.integers(1, 4)):
+            h, w = rng.integers(3, 40, 2)
+            x0, y0 = rng.integers(0, 80 - w), rng.integers(0, 60 - h)
+            m = np.zeros((h, w), np.uint8)  # a filled ellipse, anywhere in the ROI
+            cv2.ellipse(m, (int(rng.integers(0, w)), int(rng.integers(0, h))),
+                        (int(rng.integers(1, 25)), int(rng.integers(1, 25))),
+                        float(rng.uniform(0, 180)), 0, 360, 255, -1)
+            boxes.append((x0, y0, h, w))
+            masks.append(m.reshape(-1))
+            inner = cv2.erode(m, np.ones((5, 5), np.uint8))
+            if np.count_nonzero(inner) < 150:
+                inner = cv2.erode(m, np.ones((3, 3), np.uint8))
+            xa, ya, xb, yb = max(x0 - 6, 0), max(y0 - 6, 0), min(x0 + w + 6, 80), min(y0 + h + 6, 60)
+            free = fg[ya:yb, xa:xb] != 255
+            n = int(np.count_nonzero(free))
+            sums = img[ya:yb, xa:xb][free].sum(axis=0, dtype=np.int64)
+            belt = [n, *(sums * (1.0 / n) if n >= 30 else np.zeros(3))]
+            if np.count_nonzero(inner) < 8 or (n >= 30 and min(belt[1:]) >= 200):
+                want.append((0, None, belt if np.count_nonzero(inner) >= 8 else [0, 0, 0, 0]))
+                continue
+            bx, by, bw, bh = cv2.boundingRect(inner)
+            py0, py1, px0, px1 = max(by - 2, 0), min(by + bh + 2, h), max(bx - 2, 0), min(bx + bw + 2, w)
+            patch = np.ascontiguousarray(img[y0 + py0 : y0 + py1, x0 + px0 : x0 + px1])
+            row = patch_statistics(patch, np.ascontiguousarray(inner[py0:py1, px0:px1]))
+            want.append((MEASURED if n >= 30 else NO_BELT, row, belt))
+        stats, belts, state = frame_statistics(img, fg, np.array(boxes, np.int64),
+                                               np.concatenate(masks), 200.0)
+        for j, (s, row, belt) in enumerate(want):
+            assert state[j] == s
+            assert belts[j].tolist() == [float(v) for v in belt]
+            if row is not None:
+                assert stats[j].tolist() == row.tolist()

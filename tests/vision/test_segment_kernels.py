@@ -88,6 +88,29 @@ def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma):
     np.testing.assert_array_equal(got, expect)
 
 
+@pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0)])
+def test_gaussian_window_is_the_integer_separable_filter(k, sigma):
+    """A window smoothed at once, across its rows' ends (``gaussian_window``), is the
+    same integer filter: (sum + 32768) >> 16 of the 1/256 taps."""
+    from cell.vision._smooth_kernel import gaussian_window
+
+    rng = np.random.default_rng(k)
+    h, w, pad = 23, 31, max(k // 2, 1)
+    o = pad - k // 2
+    win = rng.integers(0, 256, (h + 2 * pad, w + 2 * pad, 3), dtype=np.uint8)
+    wide, size = 3 * (w + 2 * pad), win.size
+    taps = smoothing_taps(k, sigma)
+    out = np.zeros(size, np.uint8)
+    gaussian_window(win.ravel(), wide, h, w, o, taps.astype(np.int32),
+                    np.empty(size, np.uint16), np.empty(size, np.int32), out)
+    t = taps.astype(np.int64)
+    p = win[o : o + h + k - 1, o : o + w + k - 1].astype(np.int64)
+    vert = sum(t[j] * p[j : j + h] for j in range(k))
+    expect = (sum(t[j] * vert[:, j : j + w] for j in range(k)) + 32768) >> 16
+    got = out[: h * wide].reshape(h, wide)[:, : 3 * w].reshape(h, w, 3)
+    np.testing.assert_array_equal(got, expect)
+
+
 def test_gaussian_smoothing_reduces_noise_more_gently_than_the_box_at_an_edge():
     """On a noisy step edge the Gaussian leaves less noise than none and a steeper edge
     than the box filter of the same aperture."""

@@ -1,12 +1,12 @@
-"""The pixel centroid of a piece of a split blob, compiled (numba) with the arithmetic of
-``cv2.moments`` on its float32 outline and holes.
+"""The pixel centroid of a blob (a part's region, or a piece of a split blob), compiled
+(numba) with the arithmetic of ``cv2.moments`` on its float32 outline and holes.
 
 :func:`cell.vision._blob.px_centroid` takes the polygon moments of the outline and of each
 hole (``cv2.moments``: OpenCV's ``contourMoments``, Green's theorem, in imgproc/src/
 moments.cpp) and divides; :func:`piece_centroid` does the same sums, term by term in the
-same order, so the split stage (:mod:`cell.vision._split`) gets the same centroid for
-its pieces from one call. ``tests/vision/test_split.py`` checks it against
-:func:`~cell.vision._blob.px_centroid` bit for bit.
+same order, so the detector and the split stage (:mod:`cell.vision._split`) get the same
+centroid from one call. ``tests/vision/test_centroid.py`` checks it against
+:func:`~cell.vision._blob.px_centroid` and ``cv2.moments`` bit for bit.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def _centroid(contour, holes, ends):  # pragma: no cover (compiled)
     return True, cx / a, cy / a
 
 
-def piece_centroid(blob: Blob) -> tuple[float, float]:
+def blob_centroid(blob: Blob) -> tuple[float, float]:
     """:func:`cell.vision._blob.px_centroid` of a blob, in one compiled call (the
     rare blob of no area is left to it)."""
     if blob.holes:

@@ -5,8 +5,7 @@ the n-th circular harmonic of the outline's chord directions, Mardia & Jupp,
 *Directional Statistics*, 2000, ch. 3; the bolt: second moments, with the arithmetic of
 ``cv2.moments`` on the outline in float32 mm), :func:`bolt_point` the reference point of a bolt
 (:func:`cell.vision._footprint.bolt_origin`), each in one call instead of a dozen numpy
-operations; :func:`contour_moments` the area and first moments of an outline in pixels
-(``cv2.moments`` of it in float32, for its pixel centroid). The outline's projections on
+operations. The outline's projections on
 a direction are ``outline @ u`` as numpy's matrix product computes them (OpenBLAS:
 ``fma(x, u_x, y * u_y)``), so the results equal the numpy formulation's bit for bit
 (``tests/vision/test_pose.py``).
@@ -187,27 +186,3 @@ def bolt_point(p, cx, cy, rect_angle):  # pragma: no cover (compiled)
     mid = 0.5 * (s_max + s_min) + to_head * _BOLT_END_OFFSET
     return cx + mid * ax, cy + mid * ay
 
-
-@njit(cache=True)
-def contour_moments(p):  # pragma: no cover (compiled)
-    """(m00, m10, m01) of the polygon ``p`` (N, 2) as ``cv2.moments`` computes them for
-    it in float32 (OpenCV's ``contourMoments``: Green's theorem in float64 on the float32
-    points, the sums scaled by +-1/2 and +-1/6 where the area exceeds FLT_EPSILON)."""
-    n = p.shape[0]
-    if n == 0:
-        return 0.0, 0.0, 0.0
-    a00 = a10 = a01 = 0.0
-    xi_1 = np.float64(np.float32(p[n - 1, 0]))
-    yi_1 = np.float64(np.float32(p[n - 1, 1]))
-    for i in range(n):
-        xi = np.float64(np.float32(p[i, 0]))
-        yi = np.float64(np.float32(p[i, 1]))
-        dxy = xi_1 * yi - xi * yi_1
-        a00 += dxy
-        a10 += dxy * (xi_1 + xi)
-        a01 += dxy * (yi_1 + yi)
-        xi_1, yi_1 = xi, yi
-    if abs(a00) <= 1.1920928955078125e-07:  # FLT_EPSILON
-        return 0.0, 0.0, 0.0
-    half, sixth = (0.5, 1 / 6) if a00 > 0 else (-0.5, -1 / 6)
-    return a00 * half, a10 * sixth, a01 * sixth

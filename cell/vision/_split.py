@@ -22,7 +22,7 @@ import numpy as np
 
 from cell.camera import CameraModel
 from cell.vision._blob import Blob, blobs_of_mask
-from cell.vision._centroid import piece_centroid
+from cell.vision._centroid import blob_centroid
 from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces, piece_blobs
@@ -67,7 +67,7 @@ def split_blob(blob: Blob, view: FrameView, *,
         limit = max(_ACCEPT, min(whole_fit - _BETTER, _POOR))
     pieces = _split(blob, view, 0, [_BUDGET], limit)
     for p in pieces:  # (only the pieces kept: the search never reads a centroid)
-        p[3].centroid_px = piece_centroid(p[0])
+        p[3].centroid_px = blob_centroid(p[0])
     return [p[:4] for p in pieces]
 
 
@@ -303,4 +303,4 @@ def warm_up() -> None:
         blob = blobs_of_mask(roi, (0, 0))[0]
         for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
             pass
-    piece_centroid(blob)
+    blob_centroid(blob)

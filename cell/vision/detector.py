@@ -48,12 +48,13 @@ from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.errors import VisionError
 from cell.vision._blob import Blob
+from cell.vision._centroid import blob_centroid
 from cell.vision._checks import check_colour
 from cell.vision._footprint import _MID, Fit, Footprints, Geometry, fit_kinds
 from cell.vision._footprint import warm_up as _warm_up
 from cell.vision._part_material import part_materials
 from cell.vision._part_material import warm_up as _warm_up_material
-from cell.vision._pose import bolt_point, contour_moments
+from cell.vision._pose import bolt_point
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._segment import warm_up as _warm_up_segment
 from cell.vision._split import split_blob
@@ -165,7 +166,7 @@ class PartDetector:
         st, geo = self.settings, view.geo
         kind, conf, fit, res = fitted
         if kind != "unknown" and fit < 9.0:
-            res.centroid_px = _px_centroid(blob)
+            res.centroid_px = blob_centroid(blob)
             return [(blob, kind, conf, res)]
         area_mm2 = geo.area_mm2(blob)
         if st.split_touching and area_mm2 > 1.5 * st.min_area_mm2:
@@ -174,7 +175,7 @@ class PartDetector:
                 return pieces
         if kind == "unknown" or area_mm2 > st.max_area_mm2:
             return []
-        res.centroid_px = _px_centroid(blob)
+        res.centroid_px = blob_centroid(blob)
         return [(blob, kind, conf, res)]
 
     def _partials(self, blobs: list[Blob], geo: Geometry) -> list[tuple[Blob, str, float, Fit]]:
@@ -190,22 +191,9 @@ class PartDetector:
                     or mid.d.width[i] < st.partial_min_width):
                 continue
             res = mid.fit(i)
-            res.centroid_px = _px_centroid(blob)
+            res.centroid_px = blob_centroid(blob)
             out.append((blob, "unknown", 0.0, res))
         return out
-
-
-def _px_centroid(blob: Blob) -> tuple[float, float]:
-    """Pixel centroid (u, v) of the blob's region (outline minus holes), from polygon
-    moments: :func:`cell.vision._blob.px_centroid` (``cv2.moments``), compiled."""
-    a, cx, cy = contour_moments(blob.contour)
-    for hole, _ in blob.holes:
-        ha, hx, hy = contour_moments(hole)
-        a, cx, cy = a - ha, cx - hx, cy - hy
-    if abs(a) < 1e-9:
-        c = blob.contour.mean(axis=0)
-        return float(c[0]), float(c[1])
-    return float(cx / a), float(cy / a)
 
 
 def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:

@@ -100,30 +100,3 @@ def test_second_moments_are_opencvs(pts, dx, dy):
     p = np.array(pts) + (dx, dy)
     assert second_moment_angle(p) == _second_moment_angle(p)
 
-
-def test_contour_moments_equal_cv2_moments():
-    """Area and first moments of random outlines (sub-pixel, half-pixel, either turning
-    sense, empty), and the detector's pixel centroid of blobs with holes, equal OpenCV's
-    (``cell.vision._blob.px_centroid``) bit for bit."""
-    from cell.vision._blob import Blob, px_centroid
-    from cell.vision._pose import contour_moments
-    from cell.vision.detector import _px_centroid
-
-    rng = np.random.default_rng(6)
-    rings = []
-    for t in range(600):
-        n = int(rng.integers(0, 120))
-        c, r = rng.uniform(0, 640, 2), rng.uniform(0.1, 80)
-        a = np.sort(rng.uniform(0, 2 * np.pi, n)) * (1 if t % 2 else -1)
-        p = np.stack([c[0] + r * np.cos(a) * rng.uniform(0.5, 1, n), c[1] + r * np.sin(a)], 1)
-        if t % 3 == 0:
-            p = np.round(p * 2) / 2
-        m = cv2.moments(p.astype(np.float32))
-        assert contour_moments(p) == (m["m00"], m["m10"], m["m01"])
-        rings.append(p)
-    for k in range(0, 600, 3):
-        if len(rings[k]) < 3:
-            continue
-        holes = [(h, -h) for h in rings[k + 1 : k + 1 + k % 3] if len(h)]
-        blob = Blob(rings[k], -rings[k], holes, (0, 0, 1, 1), False)
-        assert _px_centroid(blob) == px_centroid(blob)

@@ -13,8 +13,7 @@ import pytest
 import cell.vision._split as split_module
 from cell.camera import CameraModel
 from cell.catalogue import KINDS
-from cell.vision._blob import Blob, blobs_of_mask, px_centroid
-from cell.vision._centroid import piece_centroid
+from cell.vision._blob import blobs_of_mask
 from cell.vision._footprint import Geometry
 from cell.vision._segment import FrameView
 from cell.vision._split import split_blob
@@ -105,19 +104,3 @@ def test_a_single_part_blob_is_not_cut(kind):
     blobs = blobs_of_mask(_mask_of(camera, [outline], KINDS[kind].height), (0, 0))
     assert split_blob(blobs[0], _view(camera)) == []
 
-
-@pytest.mark.parametrize("seed", range(40))
-def test_piece_centroid_is_px_centroid_to_the_last_bit(seed):
-    rng = np.random.default_rng(seed)
-    m = int(rng.integers(3, 300))
-    ang = np.sort(rng.random(m)) * 2 * math.pi
-    r = 20 + 15 * rng.random(m)
-    outline = np.c_[300 * rng.random() + r * np.cos(ang), 200 * rng.random() + r * np.sin(ang)]
-    holes = []
-    for _ in range(seed % 3):
-        k = int(rng.integers(3, 40))
-        t = np.sort(rng.random(k)) * 2 * math.pi
-        hole = outline.mean(axis=0) + 4 * rng.random() * np.c_[np.cos(t), np.sin(t)]
-        holes.append((hole, -hole))
-    blob = Blob(outline, -outline, holes, (0, 0, 1, 1), False)
-    assert piece_centroid(blob) == px_centroid(blob)

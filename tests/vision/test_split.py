@@ -68,6 +68,29 @@ def test_two_touching_discs_come_out_as_two_discs_where_they_lie(dist):
         assert math.hypot(x - tx, y - ty) < 1.5e-3
 
 
+@pytest.mark.parametrize("skip", [0.0, 0.7])
+def test_the_raster_cores_are_tried_only_when_the_outline_cuts_fit_poorly(monkeypatch, skip):
+    """With every cut tried (no early stop at a good fit), two touching discs' outline cut
+    fits well below the skip fraction of the limit, so the distance transform's cores are
+    not computed; with no skip they are, and the answer is the same two discs."""
+    camera = _camera()
+    mask = _mask_of(camera, [_disc((-0.02, 0.45)), _disc((0.0105, 0.452))], KINDS["disc"].height)
+    blobs = blobs_of_mask(mask, (0, 0))
+    calls = {"n": 0}
+    core_cuts = split_module._core_cuts
+
+    def count_core_cuts(roi):
+        calls["n"] += 1
+        return core_cuts(roi)
+
+    monkeypatch.setattr(split_module, "_core_cuts", count_core_cuts)
+    monkeypatch.setattr(split_module, "_GOOD", 0.0)
+    monkeypatch.setattr(split_module, "_CORE_SKIP", skip)
+    pieces = split_blob(blobs[0], _view(camera))
+    assert sorted(p[1] for p in pieces) == ["disc", "disc"]
+    assert calls["n"] == (1 if skip == 0.0 else 0)
+
+
 def test_a_blob_of_no_parts_is_given_up_within_the_budget(monkeypatch):
     """A jagged star (no catalogue kind, many deep notches) costs at most the budget of
     evaluated cuts, then comes back as no parts."""

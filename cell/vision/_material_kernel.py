@@ -26,6 +26,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from cell.vision._fma import fma
 from cell.vision._segment_kernel import border
 
 __all__: list[str] = []  # private to cell.vision
@@ -55,18 +56,6 @@ def first_reaching(hist, count):  # pragma: no cover (compiled)
             return b
     return hist.shape[0]
 
-
-@intrinsic
-def _fma32(typingctx, a, b, c):  # pragma: no cover (compiled)
-    """a * b + c in float32, rounded once (LLVM's fma)."""
-    sig = types.float32(types.float32, types.float32, types.float32)
-
-    def codegen(context, builder, signature, args):
-        f = ir.FloatType()
-        fn = builder.module.declare_intrinsic("llvm.fma", [f], ir.FunctionType(f, [f, f, f]))
-        return builder.call(fn, args)
-
-    return sig, codegen
 
 
 @njit(cache=True)
@@ -195,7 +184,7 @@ def measure(src, base, stride, mask, ia, ib, ja, jb, out):  # pragma: no cover (
         r0 = np.float32(pix[i]) - np.float32(local[i])
         r1 = np.float32(pix[i + one]) - np.float32(local[i + one])
         r2 = np.float32(pix[i + two]) - np.float32(local[i + two])
-        along = _fma32(u2, r2, _fma32(u0, r0, u1 * r1))  # cv2.transform's arithmetic
+        along = fma(u2, r2, fma(u0, r0, u1 * r1))  # cv2.transform's arithmetic
         par[j] = dev[j] = along
         orth2[j] = (r0 * r0 + r1 * r1 + r2 * r2) - along * along
     out[N], out[KEPT], out[UNCLIPPED] = n, kept, unclipped

@@ -16,9 +16,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.extending import intrinsic
+from numba import njit
+
+from cell.vision._fma import fma
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -28,23 +28,11 @@ _L_TURN = math.radians(2.0)  # see _bracket_yaw
 _BOLT_END_OFFSET = 0.0014  # body origin from the middle of the bolt's ends, towards the head
 
 
-@intrinsic
-def _fma(typingctx, a, b, c):  # pragma: no cover (compiled)
-    """a * b + c in float64, rounded once (LLVM's fma)."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        f = ir.DoubleType()
-        fn = builder.module.declare_intrinsic("llvm.fma", [f], ir.FunctionType(f, [f, f, f]))
-        return builder.call(fn, args)
-
-    return sig, codegen
-
 
 @njit(cache=True)
 def _along(p, k, cx, cy, ux, uy):  # pragma: no cover (compiled)
     """(p[k] - (cx, cy)) @ (ux, uy), as numpy's matrix product rounds it."""
-    return _fma(p[k, 0] - cx, ux, (p[k, 1] - cy) * uy)
+    return fma(p[k, 0] - cx, ux, (p[k, 1] - cy) * uy)
 
 
 @njit(cache=True)

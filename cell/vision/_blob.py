@@ -15,8 +15,6 @@ import cv2
 import numpy as np
 from numba import njit
 
-from cell.vision._mosaic import Mosaic
-
 __all__: list[str] = []  # private to cell.vision
 
 
@@ -146,82 +144,6 @@ def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
         bx, by, bw, bh = cv2.boundingRect(contours[i])
         boxes.append((bx + offset[0], by + offset[1], bw, bh))
     return make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
-
-
-def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hr, shape: tuple[int, int], margin: int,
-                     min_area: float) -> list[Blob]:
-    """Blobs of the outer contours ``cs`` (hierarchy ``hr`` as a list, ``cv2.RETR_CCOMP``)
-    of ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a
-    frame of ``shape`` (H, W), window by window: those of at least 8 points and
-    ``min_area`` px^2, partial within ``margin`` px of the frame's edge, each with its own
-    pixels (uint8 0/255, its window's shape) as ``roi``."""
-    h, w = shape
-    outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    if not outer:
-        return []
-    lengths = [len(cs[j]) for j in outer]
-    stats = contour_stats(np.concatenate([cs[j] for j in outer]).reshape(-1, 2),
-                          np.array(lengths, np.int64)).tolist()
-    box_of = [mos.which(st[0]) for st in stats]
-    n_outer = [0] * len(mos.boxes)
-    for k in box_of:
-        n_outer[k] += 1
-    picks, offsets, partial, boxes, rois = [], [], [], [], []
-    labels: dict[int, np.ndarray] = {}
-    order = sorted(range(len(outer)), key=box_of.__getitem__)
-    for o in order:
-        j, k, (_, area2, bx, by, bx1, by1) = outer[o], box_of[o], stats[o]
-        if lengths[o] < 8 or area2 < 2 * min_area:
-            continue  # a fragment (at least 3 px wide after the opening) far below a part
-        x0, y0 = mos.boxes[k][:2]
-        mx, my = mos.at_list[k]
-        bbw, bbh = bx1 - bx + 1, by1 - by + 1
-        bx, by = bx - mx + x0, by - my + y0
-        picks.append(j)
-        offsets.append((x0 - mx, y0 - my))
-        partial.append(bx <= margin or by <= margin or bx + bbw >= w - margin
-                       or by + bbh >= h - margin)
-        boxes.append((bx, by, bbw, bbh))
-        win = mos.window(sub, k)
-        if n_outer[k] == 1:
-            own = win.copy()
-        else:  # this part's pixels only, not a neighbour's
-            if k not in labels:
-                labels[k] = cv2.connectedComponents(win, connectivity=8)[1]
-            px, py = int(cs[j][0, 0, 0]) - mx, int(cs[j][0, 0, 1]) - my
-            own = (labels[k] == labels[k][py, px]).astype(np.uint8) * 255
-        rois.append((x0, y0, own))
-    if not picks:
-        return []
-    blobs = make_blobs(cs, hr, picks, offsets, partial, boxes)
-    for blob, roi in zip(blobs, rois, strict=True):
-        blob.roi = roi
-    return blobs
-
-
-@njit(cache=True)
-def contour_stats(pts, lengths):  # pragma: no cover (compiled)
-    """(n, 6) int64: for each of n pixel contours laid one after another in ``pts``
-    (M, 2) int32 (``lengths`` (n,) points each, at least 1), the x of its first point,
-    twice its area (the shoelace formula's absolute value: ``2 cv2.contourArea``,
-    exact on pixels) and its bounding box's corners x0, y0, x1, y1 (inclusive:
-    ``cv2.boundingRect`` is (x0, y0, x1 - x0 + 1, y1 - y0 + 1))."""
-    out = np.empty((lengths.shape[0], 6), np.int64)
-    start = 0
-    for c in range(lengths.shape[0]):
-        k = lengths[c]
-        area = 0
-        x0, y0 = np.int64(pts[start, 0]), np.int64(pts[start, 1])
-        x1, y1 = x0, y0
-        for i in range(k):
-            j = start + i + 1 if i + 1 < k else start
-            px, py = np.int64(pts[start + i, 0]), np.int64(pts[start + i, 1])
-            area += px * pts[j, 1] - np.int64(pts[j, 0]) * py
-            x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
-        out[c, 0], out[c, 1] = pts[start, 0], abs(area)
-        out[c, 2], out[c, 3], out[c, 4], out[c, 5] = x0, y0, x1, y1
-        start += k
-    return out
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.vision._blob import Blob, blobs_of_windows
+from cell.vision._blob import Blob
+from cell.vision._blobwindows import blobs_of_windows
 from cell.vision._footprint import Geometry
 from cell.vision._median_kernel import median15
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
@@ -279,7 +280,7 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return []
-    return blobs_of_windows(mos, sub, cs, hr[0].tolist(), view.fg.shape,
+    return blobs_of_windows(mos, sub, cs, hr[0], view.fg.shape,
                             view.settings.border_margin, view.min_px / 3)
 
 

@@ -1,13 +1,12 @@
-"""The compiled contour passes of :mod:`cell.vision._blob` against their references:
-areas and boxes (``cv2.contourArea``, ``cv2.boundingRect``), and the outlines and
-normals of many contours at once (:func:`~cell.vision._blob.outline_normals`)."""
+"""The compiled contour pass of :mod:`cell.vision._blob` against its reference: the
+outlines and normals of many contours at once (:func:`~cell.vision._blob.outline_normals`)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
 
-from cell.vision._blob import _normals, contour_stats, outline_normals
+from cell.vision._blob import _normals, outline_normals
 
 
 def _contours(seed: int):
@@ -21,17 +20,6 @@ def _contours(seed: int):
     mask[rng.random(mask.shape) < 0.005] = 255  # specks of 1 point
     cs, hier = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     return cs, hier[0]
-
-
-def test_contour_stats_are_opencvs_area_and_bounding_box():
-    for seed in range(4):
-        cs, _ = _contours(seed)
-        stats = contour_stats(np.concatenate(cs).reshape(-1, 2),
-                              np.array([len(c) for c in cs], np.int64))
-        for c, (x_first, area2, x0, y0, x1, y1) in zip(cs, stats.tolist(), strict=True):
-            assert x_first == c[0, 0, 0]
-            assert area2 / 2 == cv2.contourArea(c)
-            assert (x0, y0, x1 - x0 + 1, y1 - y0 + 1) == cv2.boundingRect(c)
 
 
 def test_normals_of_many_contours_are_those_of_each():

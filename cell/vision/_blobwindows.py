@@ -1,0 +1,196 @@
+"""The blobs of a mosaic of refined windows (:mod:`cell.vision._mosaic`), in one compiled
+pass over its traced contours.
+
+For every window, in order, its outer contours (``cv2.findContours``, ``RETR_CCOMP``) in
+the order traced: fragments are left out; each other one becomes a blob with its holes
+(of at least 6 points), its frame bounding box, whether it is partial, its outline and
+normals (:func:`cell.vision._blob._normals`) and its own pixels: the whole window when the
+window holds one outer contour, else the 8-connected region of the contour's first pixel
+(what ``cv2.connectedComponents(window, connectivity=8)`` labels alike).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from cell.vision._blob import Blob, _normals
+from cell.vision._mosaic import Mosaic
+
+__all__: list[str] = []  # private to cell.vision
+
+_META = 10  # columns of a kept blob's row (see _window_blobs)
+
+
+def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
+                     shape: tuple[int, int], margin: int, min_area: float) -> list[Blob]:
+    """Blobs of the outer contours ``cs`` (hierarchy ``hier`` (n, 4) int32, as
+    ``cv2.findContours`` returns it with ``cv2.RETR_CCOMP``, less its first axis) of
+    ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
+    window by window: those of at least 8 points and ``min_area`` px^2, partial within
+    ``margin`` px of the frame's edge, each with its own pixels (uint8 0/255, its
+    window's shape) as ``roi``."""
+    if not len(cs):
+        return []
+    lengths = np.fromiter(map(len, cs), np.int64, len(cs))
+    boxes = np.array(mos.boxes, np.int64)
+    meta, holes, outline, normals, rois = _window_blobs(
+        np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
+        2.0 * min_area, shape[0], shape[1])
+    out = []
+    for k_holes, bx, by, bw, bh, partial, start, end, h0, r0 in meta.tolist():
+        blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0)
+        for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():
+            blob.holes.append((outline[a:b], normals[a:b]))
+        k = k_holes & 0xFFFFFFFF
+        x0, y0, x1, y1 = mos.boxes[k]
+        size = (y1 - y0) * (x1 - x0)
+        blob.roi = (x0, y0, rois[r0 : r0 + size].reshape(y1 - y0, x1 - x0))
+        out.append(blob)
+    return out
+
+
+@njit(cache=True)
+def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
+    """(meta, holes, outline, normals, rois) of :func:`blobs_of_windows`: ``meta`` (B,
+    10) int64 per kept blob: window index plus its hole count << 32, frame box x, y,
+    w, h, partial (0/1), its outline's rows [start, end), its first hole's row in
+    ``holes`` and its roi's offset in ``rois``; ``holes`` (nh, 2) the holes' outline
+    rows; ``outline``, ``normals`` (M, 2) float64 all kept contours' outlines and normals;
+    ``rois`` the kept blobs' own pixels, each its window's shape, flattened one after
+    the other. ``pts`` (P, 2) int32 all contours one after another (``lengths``
+    points each), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the windows' mosaic
+    corners (x increasing), ``boxes`` (nw, 4) int64 their frame boxes (x0, y0, x1, y1)."""
+    n, nw = lengths.shape[0], at.shape[0]
+    starts = np.zeros(n + 1, np.int64)
+    for j in range(n):
+        starts[j + 1] = starts[j] + lengths[j]
+    win = np.full(n, -1, np.int64)  # each outer contour's window (by its first point)
+    n_outer = np.zeros(nw, np.int64)
+    for j in range(n):
+        if hier[j, 3] == -1:
+            x, k = pts[starts[j], 0], 0
+            while k + 1 < nw and at[k + 1, 0] <= x:
+                k += 1
+            win[j] = k
+            n_outer[k] += 1
+    # the kept outer contours, window by window, each in the order traced
+    kept = np.empty(n, np.int64)
+    area_box = np.empty((n, 4), np.int64)
+    nk = 0
+    for k in range(nw):
+        if n_outer[k] == 0:
+            continue
+        for j in range(n):
+            if win[j] != k or lengths[j] < 8:
+                continue
+            s, e = starts[j], starts[j + 1]
+            area = 0
+            x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
+            x1, y1 = x0, y0
+            for i in range(s, e):
+                q = i + 1 if i + 1 < e else s
+                px, py = np.int64(pts[i, 0]), np.int64(pts[i, 1])
+                area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
+                x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+            if abs(area) < min_area2:
+                continue  # a fragment (at least 3 px wide after the opening) far below a part
+            kept[nk] = j
+            area_box[nk, 0], area_box[nk, 1], area_box[nk, 2], area_box[nk, 3] = x0, y0, x1, y1
+            nk += 1
+    meta = np.empty((nk, _META), np.int64)
+    n_mem = n_holes = roi_size = 0
+    for b in range(nk):
+        j = kept[b]
+        n_mem += lengths[j]
+        c = hier[j, 2]
+        while c != -1:
+            if lengths[c] >= 6:
+                n_mem += lengths[c]
+                n_holes += 1
+            c = hier[c, 0]
+        k = win[j]
+        roi_size += (boxes[k, 3] - boxes[k, 1]) * (boxes[k, 2] - boxes[k, 0])
+    mem_pts = np.empty((n_mem, 2), np.int32)
+    mem_meta = np.empty((nk + n_holes, 4), np.int64)
+    holes = np.empty((n_holes, 2), np.int64)
+    rois = np.zeros(roi_size, np.uint8)
+    stack = np.empty(0, np.int64)
+    m = row = hole = r0 = 0
+    for b in range(nk):
+        j = kept[b]
+        k = win[j]
+        x0, y0, x1, y1 = boxes[k, 0], boxes[k, 1], boxes[k, 2], boxes[k, 3]
+        mx, my = at[k, 0], at[k, 1]
+        sx, sy = x0 - mx, y0 - my  # mosaic to frame
+        bx, by = area_box[b, 0] + sx, area_box[b, 1] + sy
+        bw, bh = area_box[b, 2] - area_box[b, 0] + 1, area_box[b, 3] - area_box[b, 1] + 1
+        partial = bx <= margin or by <= margin or bx + bw >= w - margin or by + bh >= h - margin
+        first_hole, start = hole, row
+        c = j
+        while c != -1:  # the outline, then its holes
+            if c == j or lengths[c] >= 6:
+                s, e = starts[c], starts[c + 1]
+                mem_pts[row : row + e - s] = pts[s:e]
+                mem_meta[m, 0], mem_meta[m, 1] = e - s, c != j
+                mem_meta[m, 2], mem_meta[m, 3] = sx, sy
+                if c != j:
+                    holes[hole, 0], holes[hole, 1] = row, row + e - s
+                    hole += 1
+                m += 1
+                row += e - s
+            c = hier[c, 2] if c == j else hier[c, 0]
+        wh, ww = y1 - y0, x1 - x0
+        own = rois[r0 : r0 + wh * ww].reshape(wh, ww)
+        window = sub[my : my + wh, mx : mx + ww]
+        if n_outer[k] == 1:
+            own[:] = window
+        else:  # this part's pixels only, not a neighbour's
+            stack = _fill8(window, pts[starts[j], 1] - my, pts[starts[j], 0] - mx, own, stack)
+        meta[b, 0] = k | ((hole - first_hole) << 32)
+        meta[b, 1], meta[b, 2], meta[b, 3], meta[b, 4] = bx, by, bw, bh
+        meta[b, 5], meta[b, 6], meta[b, 7] = partial, start, start + lengths[j]
+        meta[b, 8], meta[b, 9] = first_hole, r0
+        r0 += wh * ww
+    outline = np.empty((n_mem, 2))
+    normals = np.empty((n_mem, 2))
+    _normals(mem_pts, mem_meta, outline, normals)
+    return meta, holes, outline, normals, rois
+
+
+@njit(cache=True)
+def _fill8(src, y, x, out, stack):  # pragma: no cover (compiled)
+    """``out`` (zero, ``src``'s shape) set to 255 on the 8-connected region of nonzero
+    pixels of ``src`` that holds (y, x); ``stack`` scratch (grown as needed, returned).
+    The region is grown on a copy framed by one empty pixel, so no neighbour needs a
+    bounds test."""
+    h, w = src.shape
+    wp = w + 2
+    size = (h + 2) * wp
+    if stack.shape[0] < 2 * size:
+        stack = np.empty(2 * size, np.int64)
+    todo = stack[size:]  # (the framed copy lives in the first half: 0 empty, 1 to fill)
+    grid = stack[:size]
+    grid[:wp] = 0
+    grid[size - wp :] = 0
+    for r in range(h):
+        row, g = src[r], grid[(r + 1) * wp : (r + 2) * wp]
+        g[0] = g[w + 1] = 0
+        for c in range(w):
+            g[c + 1] = row[c] != 0
+    steps = (-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1)
+    start = (y + 1) * wp + x + 1
+    grid[start] = 0
+    todo[0] = start
+    top = 1
+    while top:
+        top -= 1
+        p = todo[top]
+        out[p // wp - 1, p % wp - 1] = 255
+        for d in steps:
+            q = p + d
+            if grid[q]:
+                grid[q] = 0
+                todo[top] = q
+                top += 1
+    return stack

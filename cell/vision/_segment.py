@@ -30,6 +30,7 @@ from cell.vision._segment_kernel import (
     median_mad,
     noise_mad,
     open2,
+    outer_boxes,
     probe_levels,
     upscale_axis,
 )
@@ -210,42 +211,42 @@ def find_blobs(view: FrameView) -> list[Blob]:
     contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return []
-    parts = list(_part_contours(view, contours, hier[0].tolist(), (0, 0), cut=True))
+    parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
     return _refine(view, parts) if parts else []
 
 
-def _part_contours(view: FrameView, contours, hier, offset: tuple[int, int], *,
-                   cut: bool, within: np.ndarray | None = None):
+def _part_contours(view: FrameView, contours, hier: np.ndarray, offset: tuple[int, int], *,
+                   cut: bool, within: tuple[np.ndarray, int, int] | None = None):
     """Half-scale outer contours that may be parts (in the mask's coordinates), each with
-    its bounding box (x, y, w, h). A contour longer than any part is opened (3x3) and its
-    pieces taken instead, once (``cut``).
+    its bounding box (x, y, w, h), chosen by :func:`~cell.vision._segment_kernel.outer_boxes`
+    (``hier`` (N, 4) int32, ``cv2.RETR_CCOMP``). A contour longer than any part is
+    opened (3x3) and its pieces taken instead, once (``cut``).
 
     The opening is that of the mask in the long contour's box: other blobs there are
     apart from it (not 8-adjacent), so they open apart and trace apart, and the pieces
     are the same, in the same order, as those of the contour's filled region alone;
     the others' pieces are told by a point outside the contour (``within``: the
-    contour in the pieces' coordinates)."""
-    for i, c in enumerate(contours):
-        if len(c) < 12 or hier[i][3] != -1:
-            continue  # the smallest part's outline is some 80 px long (40 at half scale)
-        x, y, bw, bh = cv2.boundingRect(c)
-        if bw * bh < 5 or 4 * cv2.contourArea(c) < view.min_px:
-            continue
-        if 2 * max(bw, bh) <= view.max_px:
+    contour and the pieces' offset in its coordinates)."""
+    lengths = np.fromiter(map(len, contours), np.int64, len(contours))
+    rows = outer_boxes(np.concatenate(contours).reshape(-1, 2), lengths, hier, view.min_px,
+                       view.max_px).tolist()
+    for i, x, y, bw, bh, long in rows:
+        c = contours[i]
+        if not long:
             if within is not None and cv2.pointPolygonTest(
-                    within, (float(c[0, 0, 0]), float(c[0, 0, 1])), False) < 0:
+                    within[0], (float(c[0, 0, 0] + within[1]), float(c[0, 0, 1] + within[2])),
+                    False) < 0:
                 continue  # a piece of another blob in the long contour's box
             if offset == (0, 0):
                 yield c, (x, y, bw, bh)
             else:
                 yield c + offset, (x + offset[0], y + offset[1], bw, bh)
-        elif cut and min(bw, bh) >= 8:  # a rail or an edge, with parts touching it? cut them
+        elif cut:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
             sub = cv2.morphologyEx(view.mask[oy : oy + bh, ox : ox + bw], cv2.MORPH_OPEN, _K3)
             cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
             if hr is not None:
-                yield from _part_contours(view, cs, hr[0].tolist(), (ox, oy), cut=False,
-                                          within=c - (x, y))
+                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False, within=(c, x, y))
 
 
 def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, int]]]

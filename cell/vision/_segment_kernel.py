@@ -241,3 +241,43 @@ def is_shadow(m0, m1, m2, g0, g1, g2, keep):  # pragma: no cover (compiled)
     r1 = np.float32(m1) / np.float32(min(g1, 255))
     r2 = np.float32(m2) / np.float32(min(g2, 255))
     return min(min(r0, r1), r2) > keep * max(max(r0, r1), r2)
+
+
+@njit(cache=True)
+def outer_boxes(pts, lengths, hier, min_px, max_px):  # pragma: no cover (compiled)
+    """(n, 6) int64 rows (index, x, y, w, h, long) of the outer contours (``hier`` (N, 4)
+    int32 as ``cv2.findContours`` gives it with ``RETR_CCOMP``; ``pts`` (P, 2) int32 all N
+    contours one after another, ``lengths`` (N,) points each) that may be parts or may
+    hold some, in order: at least 12 points, a bounding box (``cv2.boundingRect``) of
+    at least 5 px^2 and 4 x the area (``cv2.contourArea``: exact on pixels) at least
+    ``min_px``; ``long`` 0 when twice the box's longer side is at most ``max_px``, 1
+    when it is longer but its shorter side is at least 8 (a rail, or a part touching
+    one), others left out."""
+    out = np.empty((lengths.shape[0], 6), np.int64)
+    n = start = 0
+    for i in range(lengths.shape[0]):
+        k = lengths[i]
+        s = start
+        start += k
+        if k < 12 or hier[i, 3] != -1:
+            continue
+        area = 0
+        x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
+        x1, y1 = x0, y0
+        for j in range(s, s + k):
+            q = j + 1 if j + 1 < s + k else s
+            px, py = np.int64(pts[j, 0]), np.int64(pts[j, 1])
+            area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
+            x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+        bw, bh = x1 - x0 + 1, y1 - y0 + 1
+        if bw * bh < 5 or 2 * abs(area) < min_px:
+            continue
+        if 2 * max(bw, bh) <= max_px:
+            long = 0
+        elif min(bw, bh) >= 8:
+            long = 1
+        else:
+            continue
+        out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4], out[n, 5] = i, x0, y0, bw, bh, long
+        n += 1
+    return out[:n]

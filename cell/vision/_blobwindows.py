@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from cell.vision._blob import Blob, _normals
+from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic
 
 __all__: list[str] = []  # private to cell.vision
@@ -23,13 +24,15 @@ _META = 10  # columns of a kept blob's row (see _window_blobs)
 
 
 def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
-                     shape: tuple[int, int], margin: int, min_area: float) -> list[Blob]:
+                     shape: tuple[int, int], margin: int, min_area: float,
+                     geo: Geometry | None = None) -> list[Blob]:
     """Blobs of the outer contours ``cs`` (hierarchy ``hier`` (n, 4) int32, as
     ``cv2.findContours`` returns it with ``cv2.RETR_CCOMP``, less its first axis) of
     ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
     window by window: those of at least 8 points and ``min_area`` px^2, partial within
     ``margin`` px of the frame's edge, each with its own pixels (uint8 0/255, its
-    window's shape) as ``roi``."""
+    window's shape) as ``roi``. Given the camera's ``geo``, each blob is also prepared
+    (:meth:`~cell.vision._footprint.Geometry.prepare`), all in one pass."""
     if not len(cs):
         return []
     lengths = np.fromiter(map(len, cs), np.int64, len(cs))
@@ -37,11 +40,21 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
     meta, holes, outline, normals, rois = _window_blobs(
         np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
         2.0 * min_area, shape[0], shape[1])
+    rays = away = None
+    if geo is not None and len(outline):
+        rays, away = geo.plane_rays(outline, normals)
     out = []
     for k_holes, bx, by, bw, bh, partial, start, end, h0, r0 in meta.tolist():
         blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0)
+        stop = end
+        splits = [end - start]
         for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():
             blob.holes.append((outline[a:b], normals[a:b]))
+            splits.append(splits[-1] + b - a)
+            stop = b
+        if rays is not None:
+            blob.rays, blob.away = rays[start:stop], away[start:stop]
+            blob.splits = np.array(splits)
         k = k_holes & 0xFFFFFFFF
         x0, y0, x1, y1 = mos.boxes[k]
         size = (y1 - y0) * (x1 - x0)

@@ -282,7 +282,7 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     if hr is None:
         return []
     return blobs_of_windows(mos, sub, cs, hr[0], view.fg.shape,
-                            view.settings.border_margin, view.min_px / 3)
+                            view.settings.border_margin, view.min_px / 3, view.geo)
 
 
 def warm_up() -> None:

@@ -30,6 +30,7 @@ class Blob:
     rays: np.ndarray | None = None  # cached by _footprint.Geometry.prepare
     away: np.ndarray | None = None
     splits: np.ndarray | None = None
+    area_px: float | None = None  # outline less holes (px^2), once computed
 
 
 def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],

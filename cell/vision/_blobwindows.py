@@ -17,6 +17,7 @@ from numba import njit
 from cell.vision._blob import Blob, _normals
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic
+from cell.vision._polygons import polygon_area
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -37,15 +38,17 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
         return []
     lengths = np.fromiter(map(len, cs), np.int64, len(cs))
     boxes = np.array(mos.boxes, np.int64)
-    meta, holes, outline, normals, rois = _window_blobs(
+    meta, areas, holes, outline, normals, rois = _window_blobs(
         np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
         2.0 * min_area, shape[0], shape[1])
     rays = away = None
     if geo is not None and len(outline):
         rays, away = geo.plane_rays(outline, normals)
     out = []
-    for k_holes, bx, by, bw, bh, partial, start, end, h0, r0 in meta.tolist():
-        blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0)
+    for (k_holes, bx, by, bw, bh, partial, start, end, h0, r0), area in zip(
+            meta.tolist(), areas.tolist(), strict=True):
+        blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0,
+                    area_px=area)
         stop = end
         splits = [end - start]
         for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():
@@ -65,15 +68,17 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
 
 @njit(cache=True)
 def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
-    """(meta, holes, outline, normals, rois) of :func:`blobs_of_windows`: ``meta`` (B,
-    10) int64 per kept blob: window index plus its hole count << 32, frame box x, y,
-    w, h, partial (0/1), its outline's rows [start, end), its first hole's row in
-    ``holes`` and its roi's offset in ``rois``; ``holes`` (nh, 2) the holes' outline
-    rows; ``outline``, ``normals`` (M, 2) float64 all kept contours' outlines and normals;
-    ``rois`` the kept blobs' own pixels, each its window's shape, flattened one after
-    the other. ``pts`` (P, 2) int32 all contours one after another (``lengths``
-    points each), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the windows' mosaic
-    corners (x increasing), ``boxes`` (nw, 4) int64 their frame boxes (x0, y0, x1, y1)."""
+    """(meta, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
+    ``meta`` (B, 10) int64 per kept blob: window index plus its hole count << 32, frame
+    box x, y, w, h, partial (0/1), its outline's rows [start, end), its first hole's row
+    in ``holes`` and its roi's offset in ``rois``; ``areas`` (B,) their areas (px^2:
+    the outline's less the holes', as ``Geometry.area_mm2`` computes them); ``holes``
+    (nh, 2) the holes' outline rows; ``outline``, ``normals`` (M, 2) float64 all kept
+    contours' outlines and normals; ``rois`` the kept blobs' own pixels, each its
+    window's shape, flattened one after the other. ``pts`` (P, 2) int32 all contours
+    one after another (``lengths`` points each), ``hier`` (n, 4) int32, ``at`` (nw, 2)
+    int64 the windows' mosaic corners (x increasing), ``boxes`` (nw, 4) int64 their
+    frame boxes (x0, y0, x1, y1)."""
     n, nw = lengths.shape[0], at.shape[0]
     starts = np.zeros(n + 1, np.int64)
     for j in range(n):
@@ -168,7 +173,13 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
     outline = np.empty((n_mem, 2))
     normals = np.empty((n_mem, 2))
     _normals(mem_pts, mem_meta, outline, normals)
-    return meta, holes, outline, normals, rois
+    areas = np.empty(nk)
+    for b in range(nk):  # (as Geometry.area_mm2 computes it)
+        a = polygon_area(outline[meta[b, 6] : meta[b, 7]])
+        for i in range(meta[b, 8], meta[b, 8] + (meta[b, 0] >> 32)):
+            a -= polygon_area(outline[holes[i, 0] : holes[i, 1]])
+        areas[b] = a
+    return meta, areas, holes, outline, normals, rois
 
 
 @njit(cache=True)

@@ -124,9 +124,12 @@ class Geometry:
     def area_mm2(self, blob: Blob) -> float:
         """The blob's area (outline minus holes) scaled to the table plane at the image
         centre (mm^2)."""
-        a = polygon_area(blob.contour)
-        for h, _ in blob.holes:
-            a -= polygon_area(h)
+        a = blob.area_px
+        if a is None:
+            a = polygon_area(blob.contour)
+            for h, _ in blob.holes:
+                a -= polygon_area(h)
+            blob.area_px = a
         return a * (self.m_per_px * 1e3) ** 2
 
 

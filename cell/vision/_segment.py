@@ -269,8 +269,8 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
-    for (c, _), (mx, my), (hx0, hy0) in zip(parts, mos.at_list, corners, strict=True):
-        cv2.drawContours(near, [c], 0, 1, -1, offset=(mx // 2 + 1 - hx0, my // 2 + 1 - hy0))
+    cv2.drawContours(near, [c + (mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (c, _), (mx, my), (hx0, hy0)
+                            in zip(parts, mos.at_list, corners, strict=True)], -1, 1, -1)
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)

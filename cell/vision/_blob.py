@@ -31,6 +31,7 @@ class Blob:
     away: np.ndarray | None = None
     splits: np.ndarray | None = None
     area_px: float | None = None  # outline less holes (px^2), once computed
+    centroid_px: tuple[float, float] | None = None  # (u, v) of the region, where computed
 
 
 def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],

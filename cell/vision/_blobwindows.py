@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from cell.vision._blob import Blob, _normals
+from cell.vision._centroid import _moments
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic
 from cell.vision._polygons import polygon_area
@@ -45,10 +46,10 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
     if geo is not None and len(outline):
         rays, away = geo.plane_rays(outline, normals)
     out = []
-    for (k_holes, bx, by, bw, bh, partial, start, end, h0, r0), area in zip(
+    for (k_holes, bx, by, bw, bh, partial, start, end, h0, r0), (area, u, v) in zip(
             meta.tolist(), areas.tolist(), strict=True):
         blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0,
-                    area_px=area)
+                    area_px=area, centroid_px=None if u != u else (u, v))
         stop = end
         splits = [end - start]
         for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():
@@ -71,8 +72,10 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
     """(meta, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
     ``meta`` (B, 10) int64 per kept blob: window index plus its hole count << 32, frame
     box x, y, w, h, partial (0/1), its outline's rows [start, end), its first hole's row
-    in ``holes`` and its roi's offset in ``rois``; ``areas`` (B,) their areas (px^2:
-    the outline's less the holes', as ``Geometry.area_mm2`` computes them); ``holes``
+    in ``holes`` and its roi's offset in ``rois``; ``areas`` (B, 3) their areas (px^2:
+    the outline's less the holes', as ``Geometry.area_mm2`` computes them) and pixel
+    centroids (as :func:`~cell.vision._centroid.blob_centroid`, NaN where that leaves it
+    to ``px_centroid``); ``holes``
     (nh, 2) the holes' outline rows; ``outline``, ``normals`` (M, 2) float64 all kept
     contours' outlines and normals; ``rois`` the kept blobs' own pixels, each its
     window's shape, flattened one after the other. ``pts`` (P, 2) int32 all contours
@@ -173,12 +176,20 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
     outline = np.empty((n_mem, 2))
     normals = np.empty((n_mem, 2))
     _normals(mem_pts, mem_meta, outline, normals)
-    areas = np.empty(nk)
-    for b in range(nk):  # (as Geometry.area_mm2 computes it)
-        a = polygon_area(outline[meta[b, 6] : meta[b, 7]])
-        for i in range(meta[b, 8], meta[b, 8] + (meta[b, 0] >> 32)):
+    areas = np.empty((nk, 3))  # area; pixel centroid u, v (NaN: left to px_centroid)
+    for b in range(nk):
+        s, e, first, n_h = meta[b, 6], meta[b, 7], meta[b, 8], meta[b, 0] >> 32
+        a = polygon_area(outline[s:e])  # (as Geometry.area_mm2 computes it)
+        m, cx, cy = _moments(outline, s, e)  # (as blob_centroid does)
+        for i in range(first, first + n_h):
             a -= polygon_area(outline[holes[i, 0] : holes[i, 1]])
-        areas[b] = a
+            m00, m10, m01 = _moments(outline, holes[i, 0], holes[i, 1])
+            m, cx, cy = m - m00, cx - m10, cy - m01
+        areas[b, 0] = a
+        if abs(m) < 1e-9:
+            areas[b, 1] = areas[b, 2] = np.nan
+        else:
+            areas[b, 1], areas[b, 2] = cx / m, cy / m
     return meta, areas, holes, outline, normals, rois
 
 

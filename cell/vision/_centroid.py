@@ -59,7 +59,10 @@ def _centroid(contour, holes, ends):  # pragma: no cover (compiled)
 
 def blob_centroid(blob: Blob) -> tuple[float, float]:
     """:func:`cell.vision._blob.px_centroid` of a blob, in one compiled call (the
-    rare blob of no area is left to it)."""
+    rare blob of no area is left to it); the blob's own ``centroid_px`` where the window
+    pass (:mod:`cell.vision._blobwindows`) computed it the same way."""
+    if blob.centroid_px is not None:
+        return blob.centroid_px
     if blob.holes:
         holes = np.concatenate([h for h, _ in blob.holes])
         ends = np.cumsum([len(h) for h, _ in blob.holes])

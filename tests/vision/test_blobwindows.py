@@ -1,7 +1,8 @@
 """The compiled blobs of a mosaic of windows against their reference, written with
 OpenCV: ``cv2.contourArea`` and ``cv2.boundingRect`` for the fragments and boxes,
 ``cv2.connectedComponents`` for each blob's own pixels and
-:func:`~cell.vision._blob.make_blobs` for outlines, normals and holes."""
+:func:`~cell.vision._blob.make_blobs` for outlines, normals and holes; areas and
+centroids as the detector computes them for a blob alone."""
 
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ import numpy as np
 
 from cell.vision._blob import make_blobs
 from cell.vision._blobwindows import blobs_of_windows
+from cell.vision._centroid import blob_centroid
 from cell.vision._mosaic import Mosaic
+from cell.vision._polygons import polygon_area
 
 
 def _reference(mos, sub, cs, hier, shape, margin, min_area):
@@ -47,6 +50,14 @@ def _reference(mos, sub, cs, hier, shape, margin, min_area):
         blob.roi = (x0, y0, own)
         blob.shared = several  # (a window with other blobs: its own pixels labelled)
     return blobs
+
+
+def geo_free_area(blob) -> float:
+    """The blob's area in px^2 as ``Geometry.area_mm2`` sums it."""
+    a = polygon_area(blob.contour)
+    for h, _ in blob.holes:
+        a -= polygon_area(h)
+    return a
 
 
 def _mosaic(seed: int):
@@ -86,6 +97,8 @@ def test_blobs_of_windows_are_the_opencv_reference():
                 for (ha, na), (hb, nb) in zip(a.holes, b.holes, strict=True):
                     np.testing.assert_array_equal(ha, hb)
                     np.testing.assert_array_equal(na, nb)
+                assert a.area_px == geo_free_area(b)
+                assert a.centroid_px == blob_centroid(b)  # (b's computed from its outline)
                 assert a.roi[:2] == b.roi[:2]
                 np.testing.assert_array_equal(a.roi[2], b.roi[2])
                 holes += len(a.holes)

@@ -23,7 +23,7 @@ __all__: list[str] = []  # private to cell.vision
 
 
 @njit(cache=True)
-def first_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, count, may_split,
+def first_cuts(contour, normals, rays, away, hole_starts, hole_pts, count, may_split,
                area_scale, min_pair, good, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir,
                ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas, round_,
                round_facets, faceted, facet_w, max_fit, hopeless, gap,
@@ -49,9 +49,9 @@ def first_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, 
         hull = np.empty(0, np.int32)  # (no defects: no cuts)
     first, second, starts, cut, cut_normals, cut_rays, cut_away = cut_candidates(
         contour, normals, outline, hull, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir)
-    res = evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, first,
-                        second, starts, cut, cut_normals, cut_rays, cut_away, 0, count,
-                        may_split, area_scale, min_pair, good, ox, oy, drop, mid, edge_lo,
-                        edge_hi, bolt, bolt_height, nominal, sigmas, round_, round_facets,
-                        faceted, facet_w, max_fit, hopeless, gap, min_conf)
+    res = evaluate_cuts(contour, normals, rays, away, hole_starts, hole_pts, first, second,
+                        starts, cut, cut_normals, cut_rays, cut_away, 0, count, may_split,
+                        area_scale, min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+                        bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w,
+                        max_fit, hopeless, gap, min_conf)
     return status, first, second, starts, cut, cut_normals, cut_rays, cut_away, res

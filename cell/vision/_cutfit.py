@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from cell.vision._centroid import _moments
 from cell.vision._kindfit import fit_one
 from cell.vision._polygons import polygon_area
 
@@ -154,19 +155,27 @@ def _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nom
 
 
 @njit(cache=True)
-def _fails(kind, contour, holes, hole_pts, hole_off, may_split, area_scale,
-           min_pair):  # pragma: no cover (compiled)
-    """Whether a piece fits no kind and may not be split: ``may_split`` is False or its
-    area (outline less ``holes``, shoelace, times ``area_scale``) is at most
-    ``min_pair``, as ``Geometry.area_mm2`` computes it."""
-    if kind >= 0:
-        return False
-    if not may_split:
-        return True
+def _area_mm2(contour, holes, hole_pts, hole_off, area_scale):  # pragma: no cover (compiled)
+    """A piece's table-plane area (outline less ``holes``, shoelace, times
+    ``area_scale``), as ``Geometry.area_mm2`` computes it, to the last bit."""
     a = polygon_area(contour)
     for h in holes:
         a -= polygon_area(hole_pts[hole_off[h] : hole_off[h + 1]])
-    return not a * area_scale > min_pair
+    return a * area_scale
+
+
+@njit(cache=True)
+def _centroid_of(contour, holes, hole_pts, hole_off):  # pragma: no cover (compiled)
+    """(found, u, v): a piece's pixel centroid, the sums of
+    :func:`cell.vision._centroid.blob_centroid` in its order (found 0.0 where the area is
+    below 1e-9: the caller asks that function)."""
+    a, cx, cy = _moments(contour, 0, contour.shape[0])
+    for h in holes:
+        m00, m10, m01 = _moments(hole_pts, hole_off[h], hole_off[h + 1])
+        a, cx, cy = a - m00, cx - m10, cy - m01
+    if abs(a) < 1e-9:
+        return 0.0, 0.0, 0.0
+    return 1.0, cx / a, cy / a
 
 
 @njit(cache=True)
@@ -178,9 +187,11 @@ def _grown(a, used, need):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _store(p, arrs, holes, kind, conf, fit, xy, row, meta, scores, splits, c_all, nr_all, r_all,
-           aw_all, xy_all, held, kc, kr, kh):  # pragma: no cover (compiled)
-    """Write piece ``p`` into the output arrays at offsets (kc, kr, kh); the new offsets."""
+def _store(p, arrs, holes, kind, conf, fit, xy, row, area, hole_pts, hole_off, meta, scores,
+           splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr,
+           kh):  # pragma: no cover (compiled)
+    """Write piece ``p`` (with its ``area`` and pixel centroid) into the output arrays at
+    offsets (kc, kr, kh); the new offsets."""
     pc, pn, pr, paw, psplits, box = arrs
     nc, nrays, nh = pc.shape[0], pr.shape[0], holes.shape[0]
     c_all[kc : kc + nc] = pc
@@ -194,43 +205,51 @@ def _store(p, arrs, holes, kind, conf, fit, xy, row, meta, scores, splits, c_all
     meta[p, 4], meta[p, 5], meta[p, 6] = kind, kh, kh + nh
     meta[p, 7:] = box
     scores[p, 0], scores[p, 1] = conf, fit
-    scores[p, 2:] = row
+    scores[p, 2:12] = row
+    scores[p, 12], scores[p, 13], scores[p, 14] = _centroid_of(pc, holes, hole_pts, hole_off)
+    scores[p, 15] = area
     return kc + nc, kr + nrays, kh + nh
 
 
 @njit(cache=True)
-def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, first, second,
+def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_pts, first, second,
                   starts, cut, cut_normals, cut_rays, cut_away, begin, count, may_split,
                   area_scale, min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
                   bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
                   hopeless, gap, min_conf):  # pragma: no cover (compiled)
     """Build and fit the pieces of cuts ``begin``, ``begin + 1``, ... of a prepared blob
     (``contour``/``normals`` its outline, ``rays``/``away`` outline then holes, hole h's
-    points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its first pixel
-    ``hole_first[h]``, its outline ``hole_pts`` from ``hole_starts[h] - n``). Cut c
+    points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its outline
+    ``hole_pts`` from ``hole_starts[h] - n``). Cut c
     joins outline points ``first[c]`` < ``second[c]``: piece 0 is the outline from the
     first to the second then the cut's points ``cut[starts[c]:starts[c + 1]]`` (with
     their normals, rays, top-edge flags), piece 1 the outline from the second round to
     the first then the cut reversed; each takes the holes whose first point lies inside
-    it (a crossing-number test, as ``cv2.pointPolygonTest``). A cut fails when a piece
-    is a speck (under 30 px^2, as ``cv2.contourArea``) or fits no kind and may not be
-    split (:func:`_fails`; the second piece is then not fitted).
+    it (its first point: a crossing-number test, as ``cv2.pointPolygonTest``). A cut
+    fails when a piece is a speck (under 30 px^2, as ``cv2.contourArea``) or fits no kind
+    and may not be split (``may_split`` False, or its area (:func:`_area_mm2`) at most
+    ``min_pair``; the second piece is then not fitted).
 
     Stops after ``count`` cuts, or after a cut the search will not go past: both pieces
     fit a kind with a mean fit below ``good``, or a piece fits none (and may be split).
     Returns per piece (cut c's are rows 2c and 2c + 1) ``meta`` (contour start/end in
     ``c``/``nr``, point start/end in ``r``/``aw``/``xy``, kind or -1 (-2: the cut
     failed), hole start/end in ``held``, bounding box as ``cv2.boundingRect``),
-    ``scores`` (confidence, fit, descriptors), ``splits`` (cumulative polygon sizes),
+    ``scores`` (confidence, fit, 10 descriptors, then the pixel centroid as found (1.0 or
+    0.0: :func:`_centroid_of`), u, v, and the table-plane area (mm^2)), ``splits``
+    (cumulative polygon sizes),
     then the concatenated arrays ``c``, ``nr``, ``r``, ``aw``, ``xy`` and the held
     holes' indices ``held``."""
     n = contour.shape[0]
-    n_holes = hole_first.shape[0]
+    n_holes = hole_starts.shape[0] - 1
     hole_off = hole_starts - n
+    hole_first = np.empty((n_holes, 2))
+    for h in range(n_holes):
+        hole_first[h, 0], hole_first[h, 1] = hole_pts[hole_off[h], 0], hole_pts[hole_off[h], 1]
     m = min(first.shape[0], begin + count)
     pieces = 2 * (m - begin)
     meta = np.zeros((pieces, 11), np.int64)
-    scores = np.zeros((pieces, 12))
+    scores = np.zeros((pieces, 16))
     splits = np.zeros((pieces, n_holes + 1), np.int64)
     # room for one cut's pieces (the search mostly stops at the first); more on demand
     size_c = n + 2 + 2 * (starts[begin + 1] - starts[begin]) if m > begin else 0
@@ -258,12 +277,14 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
         kind0, conf0, fit0, xy0, row0 = _fit_piece(
             arrs0, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
             round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
-        if _fails(kind0, arrs0[0], holes0, hole_pts, hole_off, may_split, area_scale, min_pair):
+        area0 = _area_mm2(arrs0[0], holes0, hole_pts, hole_off, area_scale)
+        if kind0 < 0 and not (may_split and area0 > min_pair):
             continue
         kind1, conf1, fit1, xy1, row1 = _fit_piece(
             arrs1, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
             round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
-        if _fails(kind1, arrs1[0], holes1, hole_pts, hole_off, may_split, area_scale, min_pair):
+        area1 = _area_mm2(arrs1[0], holes1, hole_pts, hole_off, area_scale)
+        if kind1 < 0 and not (may_split and area1 > min_pair):
             continue
         need_c = kc + arrs0[0].shape[0] + arrs1[0].shape[0]
         need_r = kr + arrs0[2].shape[0] + arrs1[2].shape[0]
@@ -278,10 +299,12 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
             more = np.empty(2 * held.shape[0] + holes0.shape[0] + holes1.shape[0], np.int64)
             more[:kh] = held[:kh]
             held = more
-        kc, kr, kh = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, meta, scores,
-                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
-        kc, kr, kh = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, meta, scores,
-                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
+        kc, kr, kh = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, area0, hole_pts,
+                            hole_off, meta, scores, splits, c_all, nr_all, r_all, aw_all,
+                            xy_all, held, kc, kr, kh)
+        kc, kr, kh = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, area1, hole_pts,
+                            hole_off, meta, scores, splits, c_all, nr_all, r_all, aw_all,
+                            xy_all, held, kc, kr, kh)
         if kind0 < 0 or kind1 < 0 or (fit0 + fit1) / 2 < good:
             break
     pieces = 2 * done

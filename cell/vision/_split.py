@@ -29,6 +29,7 @@ from cell.vision._cutraster import owned_pieces, piece_blobs
 from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
 from cell.vision._footprint import Fit, Geometry, fit_kinds
 from cell.vision._hull import convex_hull
+from cell.vision._polyfill import fill_within
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -261,13 +262,18 @@ def _batch_pieces(blob: Blob, res: tuple, lists: tuple, p: int, cut: int) -> lis
 
 
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
-    """A polygon piece's own pixels: its outline filled, within the parent's pixels."""
+    """A polygon piece's own pixels: its outline filled, within the parent's pixels
+    (:func:`cell.vision._polyfill.fill_within`: ``cv2.fillPoly`` and ``cv2.bitwise_and``
+    in one compiled call)."""
     if parent.roi is None:
         return None
     x0, y0, mask = parent.roi
-    own = np.zeros_like(mask)
-    cv2.fillPoly(own, [int_outline(piece.contour, piece.normals)], 255, offset=(-x0, -y0))
-    return x0, y0, cv2.bitwise_and(own, mask)
+    ok, own = fill_within(mask, piece.contour, piece.normals, x0, y0)
+    if not ok:  # the outline leaves the parent's box: OpenCV clips it
+        own = np.zeros_like(mask)
+        cv2.fillPoly(own, [int_outline(piece.contour, piece.normals)], 255, offset=(-x0, -y0))
+        own = cv2.bitwise_and(own, mask)
+    return x0, y0, own
 
 
 def _core_cuts(roi: np.ndarray):
@@ -300,8 +306,8 @@ def _judge(pieces: list[Piece], may_split: bool) -> list[Piece] | None:
 def warm_up() -> None:
     """Run both kinds of cut (on the outline: cut generation, pieces and fits, in one
     call and, as for a camera with lens distortion, kernel by kernel; on the raster:
-    cores, owners, pieces' contours) and the pieces' centroid once on a made-up blob of
-    two touching discs, so their first real use loads nothing."""
+    cores, owners, pieces' contours), the pieces' centroid and own pixels once on a
+    made-up blob of two touching discs, so their first real use loads nothing."""
     roi = np.zeros((40, 70), np.uint8)
     cv2.circle(roi, (20, 20), 14, 255, -1)
     cv2.circle(roi, (47, 20), 14, 255, -1)
@@ -317,3 +323,4 @@ def warm_up() -> None:
         for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
             pass
     blob_centroid(blob)
+    fill_within(roi, blob.contour, blob.normals, 0, 0)

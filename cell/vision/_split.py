@@ -202,9 +202,12 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
     hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else _NO_HOLES
     status, res = -1, None
     if k.pinhole:  # the usual case: the cuts and their first batch in one call
-        status, first, second, starts, cut, normals, rays, away, res = first_cuts(
+        status, index, points, away, res = first_cuts(
             blob.contour, blob.normals, blob.rays, blob.away, blob.splits, hole_pts,
             budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.camera, *k.fit)
+        m = (len(index) - 1) // 3
+        first, second, starts = index[:m], index[m : 2 * m], index[2 * m :]
+        cut, normals, rays = points
     if status == 0:
         return
     if status < 0:  # another camera model, or a hull OpenCV must make
@@ -229,33 +232,35 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
             res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits,
                                 hole_pts, first, second, starts, cut, normals, rays, away, c,
                                 budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
-        meta = res[0].tolist()
-        lists = meta, res[1].tolist(), res[2].tolist(), res[8].tolist()
+        meta, scores = res[0].tolist(), res[1].tolist()
         for p in range(0, len(meta), 2):
-            yield _batch_pieces(blob, res, lists, p, ends[c + 1] - ends[c])
+            yield _batch_pieces(blob, res, meta, scores, p, ends[c + 1] - ends[c])
             c += 1
         res = None
 
 
-def _batch_pieces(blob: Blob, res: tuple, lists: tuple, p: int, cut: int) -> list[Piece] | None:
+def _batch_pieces(blob: Blob, res: tuple, meta: list, scores: list, p: int,
+                  cut: int) -> list[Piece] | None:
     """The two pieces, with their best kinds, of the cut whose pieces are rows ``p`` and
-    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``lists``: its
-    first three arrays and its last as lists); None when the cut failed (a piece is a
+    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta`` and
+    ``scores`` its first two arrays as lists); None when the cut failed (a piece is a
     speck, or fits no kind and may not be split, as :func:`_judge` finds). ``cut``: each
     piece's outline ends with that many points of the cut."""
-    meta, scores, splits, held = lists
     if meta[p][4] == -2:
         return None
-    rows, c, nr, r, aw, xy = res[1], res[3], res[4], res[5], res[6], res[7]
+    imeta, rows, cn, rxy, aw = res
+    c, nr, r, xy = cn[0], cn[1], rxy[0], rxy[1]
+    held = 11 + len(blob.holes)  # the column of a piece's first hole in meta
     out = []
     for q in (p, p + 1):
-        c0, c1, r0, r1, kind, h0, h1, bx, by, bw, bh = meta[q]
+        mq = meta[q]
+        c0, c1, r0, r1, kind, nh, bx, by, bw, bh = mq[:10]
         sq = scores[q]
-        holes = [blob.holes[h] for h in held[h0:h1]] if h1 > h0 else []
-        spl = res[2][q, : 1 + h1 - h0]
+        holes = [blob.holes[h] for h in mq[held : held + nh]] if nh else []
+        spl = imeta[q, 10 : 11 + nh]
         piece = Blob(c[c0:c1], nr[c0:c1], holes, (bx, by, bw, bh), False, None, r[r0:r1],
                      aw[r0:r1], spl)
-        fit = Fit(rows[q, 2:12], xy[r0:r1], tuple(splits[q][: 1 + h1 - h0]), cut=cut)
+        fit = Fit(rows[q, 2:12], xy[r0:r1], tuple(mq[10 : 11 + nh]), cut=cut)
         out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", sq[0], fit, sq[1],
                     sq[15], (sq[13], sq[14]) if sq[12] else None))
     return out

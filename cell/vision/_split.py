@@ -207,7 +207,7 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
             budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.camera, *k.fit)
         m = (len(index) - 1) // 3
         first, second, starts = index[:m], index[m : 2 * m], index[2 * m :]
-        cut, normals, rays = points
+        cut, normals, rays = points[0], points[1], points[2]
     if status == 0:
         return
     if status < 0:  # another camera model, or a hull OpenCV must make

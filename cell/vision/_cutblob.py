@@ -23,7 +23,7 @@ __all__: list[str] = []  # private to cell.vision
 
 
 @njit(cache=True)
-def first_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, count, may_split,
+def first_cuts(contour, normals, rays, away, hole_starts, hole_pts, count, may_split,
                area_scale, min_pair, good, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir,
                ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas, round_,
                round_facets, faceted, facet_w, max_fit, hopeless, gap,
@@ -31,11 +31,13 @@ def first_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, 
     """A prepared blob's cuts (:func:`cell.vision._cutsearch.cut_candidates` on a
     ``pinhole`` camera) and the first batch of them built and fitted
     (:func:`cell.vision._cutfit.evaluate_cuts` from cut 0, at most ``count``; the
-    arguments are theirs). Returns (status, first, second, starts, cut, normals, rays,
-    away, evaluation): status 1 with the cuts, 0 where there are none (an outline of
-    fewer than 5 points, a hull of fewer than 4 vertices), -1 where the hull is not
-    plain (:func:`cell.vision._hull.convex_hull`: OpenCV must make it); the cuts and the
-    evaluation are empty unless the status is 1."""
+    arguments are theirs). Returns (status, index, points, away, evaluation): status 1
+    with the cuts, 0 where there are none (an outline of fewer than 5 points, a hull of
+    fewer than 4 vertices), -1 where the hull is not plain
+    (:func:`cell.vision._hull.convex_hull`: OpenCV must make it); the cuts (``index``:
+    first, second and starts one after the other; ``points`` (3, k, 2): the cut, normals
+    and rays) and the evaluation are empty unless the status is 1. (Few arrays: each
+    costs its boxing.)"""
     outline = int_outline(contour, normals)
     status = 0
     hull = np.empty(0, np.int32)
@@ -49,9 +51,14 @@ def first_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, 
         hull = np.empty(0, np.int32)  # (no defects: no cuts)
     first, second, starts, cut, cut_normals, cut_rays, cut_away = cut_candidates(
         contour, normals, outline, hull, pinhole, fx, fy, cx, cy, skew, R, nx, ny, has_nadir)
-    res = evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, first,
-                        second, starts, cut, cut_normals, cut_rays, cut_away, 0, count,
-                        may_split, area_scale, min_pair, good, ox, oy, drop, mid, edge_lo,
-                        edge_hi, bolt, bolt_height, nominal, sigmas, round_, round_facets,
-                        faceted, facet_w, max_fit, hopeless, gap, min_conf)
-    return status, first, second, starts, cut, cut_normals, cut_rays, cut_away, res
+    res = evaluate_cuts(contour, normals, rays, away, hole_starts, hole_pts, first, second,
+                        starts, cut, cut_normals, cut_rays, cut_away, 0, count, may_split,
+                        area_scale, min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
+                        bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w,
+                        max_fit, hopeless, gap, min_conf)
+    m = first.shape[0]
+    index = np.empty(3 * m + 1, np.int64)
+    index[:m], index[m : 2 * m], index[2 * m :] = first, second, starts
+    points = np.empty((3, cut.shape[0], 2))
+    points[0], points[1], points[2] = cut, cut_normals, cut_rays
+    return status, index, points, cut_away, res

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from cell.vision._centroid import _moments
 from cell.vision._kindfit import fit_one
 from cell.vision._polygons import polygon_area
 
@@ -154,94 +155,109 @@ def _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nom
 
 
 @njit(cache=True)
-def _fails(kind, contour, holes, hole_pts, hole_off, may_split, area_scale,
-           min_pair):  # pragma: no cover (compiled)
-    """Whether a piece fits no kind and may not be split: ``may_split`` is False or its
-    area (outline less ``holes``, shoelace, times ``area_scale``) is at most
-    ``min_pair``, as ``Geometry.area_mm2`` computes it."""
-    if kind >= 0:
-        return False
-    if not may_split:
-        return True
+def _area_mm2(contour, holes, hole_pts, hole_off, area_scale):  # pragma: no cover (compiled)
+    """A piece's table-plane area (outline less ``holes``, shoelace, times
+    ``area_scale``), as ``Geometry.area_mm2`` computes it, to the last bit."""
     a = polygon_area(contour)
     for h in holes:
         a -= polygon_area(hole_pts[hole_off[h] : hole_off[h + 1]])
-    return not a * area_scale > min_pair
+    return a * area_scale
+
+
+@njit(cache=True)
+def _centroid_of(contour, holes, hole_pts, hole_off):  # pragma: no cover (compiled)
+    """(found, u, v): a piece's pixel centroid, the sums of
+    :func:`cell.vision._centroid.blob_centroid` in its order (found 0.0 where the area is
+    below 1e-9: the caller asks that function)."""
+    a, cx, cy = _moments(contour, 0, contour.shape[0])
+    for h in holes:
+        m00, m10, m01 = _moments(hole_pts, hole_off[h], hole_off[h + 1])
+        a, cx, cy = a - m00, cx - m10, cy - m01
+    if abs(a) < 1e-9:
+        return 0.0, 0.0, 0.0
+    return 1.0, cx / a, cy / a
 
 
 @njit(cache=True)
 def _grown(a, used, need):  # pragma: no cover (compiled)
-    """(k, 2) array ``a`` with its first ``used`` rows, enlarged to hold ``need`` rows."""
-    out = np.empty((max(need, 2 * a.shape[0]), 2))
-    out[:used] = a[:used]
+    """(2, k, 2) array ``a`` with its first ``used`` points, enlarged to hold ``need``."""
+    out = np.empty((2, max(need, 2 * a.shape[1]), 2))
+    out[:, :used] = a[:, :used]
     return out
 
 
 @njit(cache=True)
-def _store(p, arrs, holes, kind, conf, fit, xy, row, meta, scores, splits, c_all, nr_all, r_all,
-           aw_all, xy_all, held, kc, kr, kh):  # pragma: no cover (compiled)
-    """Write piece ``p`` into the output arrays at offsets (kc, kr, kh); the new offsets."""
+def _store(p, arrs, holes, kind, conf, fit, xy, row, area, hole_pts, hole_off, meta, scores,
+           cn_all, rxy_all, aw_all, kc, kr):  # pragma: no cover (compiled)
+    """Write piece ``p`` (with its ``area`` and pixel centroid) into the output arrays at
+    offsets (kc, kr); the new offsets."""
     pc, pn, pr, paw, psplits, box = arrs
     nc, nrays, nh = pc.shape[0], pr.shape[0], holes.shape[0]
-    c_all[kc : kc + nc] = pc
-    nr_all[kc : kc + nc] = pn
-    r_all[kr : kr + nrays] = pr
+    cn_all[0, kc : kc + nc] = pc
+    cn_all[1, kc : kc + nc] = pn
+    rxy_all[0, kr : kr + nrays] = pr
+    rxy_all[1, kr : kr + nrays] = xy
     aw_all[kr : kr + nrays] = paw
-    xy_all[kr : kr + nrays] = xy
-    held[kh : kh + nh] = holes
-    splits[p, : psplits.shape[0]] = psplits
     meta[p, 0], meta[p, 1], meta[p, 2], meta[p, 3] = kc, kc + nc, kr, kr + nrays
-    meta[p, 4], meta[p, 5], meta[p, 6] = kind, kh, kh + nh
-    meta[p, 7:] = box
+    meta[p, 4], meta[p, 5] = kind, nh
+    meta[p, 6:10] = box
+    meta[p, 10 : 10 + psplits.shape[0]] = psplits
+    held = 11 + (meta.shape[1] - 11) // 2  # the holes' first column
+    meta[p, held : held + nh] = holes
     scores[p, 0], scores[p, 1] = conf, fit
-    scores[p, 2:] = row
-    return kc + nc, kr + nrays, kh + nh
+    scores[p, 2:12] = row
+    scores[p, 12], scores[p, 13], scores[p, 14] = _centroid_of(pc, holes, hole_pts, hole_off)
+    scores[p, 15] = area
+    return kc + nc, kr + nrays
 
 
 @njit(cache=True)
-def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pts, first, second,
+def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_pts, first, second,
                   starts, cut, cut_normals, cut_rays, cut_away, begin, count, may_split,
                   area_scale, min_pair, good, ox, oy, drop, mid, edge_lo, edge_hi, bolt,
                   bolt_height, nominal, sigmas, round_, round_facets, faceted, facet_w, max_fit,
                   hopeless, gap, min_conf):  # pragma: no cover (compiled)
     """Build and fit the pieces of cuts ``begin``, ``begin + 1``, ... of a prepared blob
     (``contour``/``normals`` its outline, ``rays``/``away`` outline then holes, hole h's
-    points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its first pixel
-    ``hole_first[h]``, its outline ``hole_pts`` from ``hole_starts[h] - n``). Cut c
+    points at ``hole_starts[h]`` up to ``hole_starts[h + 1]`` in those, its outline
+    ``hole_pts`` from ``hole_starts[h] - n``). Cut c
     joins outline points ``first[c]`` < ``second[c]``: piece 0 is the outline from the
     first to the second then the cut's points ``cut[starts[c]:starts[c + 1]]`` (with
     their normals, rays, top-edge flags), piece 1 the outline from the second round to
     the first then the cut reversed; each takes the holes whose first point lies inside
-    it (a crossing-number test, as ``cv2.pointPolygonTest``). A cut fails when a piece
-    is a speck (under 30 px^2, as ``cv2.contourArea``) or fits no kind and may not be
-    split (:func:`_fails`; the second piece is then not fitted).
+    it (its first point: a crossing-number test, as ``cv2.pointPolygonTest``). A cut
+    fails when a piece is a speck (under 30 px^2, as ``cv2.contourArea``) or fits no kind
+    and may not be split (``may_split`` False, or its area (:func:`_area_mm2`) at most
+    ``min_pair``; the second piece is then not fitted).
 
     Stops after ``count`` cuts, or after a cut the search will not go past: both pieces
     fit a kind with a mean fit below ``good``, or a piece fits none (and may be split).
-    Returns per piece (cut c's are rows 2c and 2c + 1) ``meta`` (contour start/end in
-    ``c``/``nr``, point start/end in ``r``/``aw``/``xy``, kind or -1 (-2: the cut
-    failed), hole start/end in ``held``, bounding box as ``cv2.boundingRect``),
-    ``scores`` (confidence, fit, descriptors), ``splits`` (cumulative polygon sizes),
-    then the concatenated arrays ``c``, ``nr``, ``r``, ``aw``, ``xy`` and the held
-    holes' indices ``held``."""
+    Returns (meta, scores, cn, rxy, aw), few arrays (each costs its boxing): per piece
+    (cut c's are rows 2c and 2c + 1) ``meta`` (contour start/end in ``cn``, point
+    start/end in ``rxy``/``aw``, kind or -1 (-2: the cut failed), how many holes it
+    holds (k), bounding box as ``cv2.boundingRect``, then from column 10 its cumulative
+    polygon sizes (k + 1) and from column 11 + the blob's holes its holes' indices (k)),
+    ``scores`` (confidence, fit, 10 descriptors, then the pixel centroid as found (1.0 or
+    0.0: :func:`_centroid_of`), u, v, and the table-plane area (mm^2)), then the pieces'
+    points concatenated: ``cn`` their outlines and normals (2, points, 2), ``rxy`` their
+    rays and footprint points (2, points, 2) and ``aw`` their top-edge flags."""
     n = contour.shape[0]
-    n_holes = hole_first.shape[0]
+    n_holes = hole_starts.shape[0] - 1
     hole_off = hole_starts - n
+    hole_first = np.empty((n_holes, 2))
+    for h in range(n_holes):
+        hole_first[h, 0], hole_first[h, 1] = hole_pts[hole_off[h], 0], hole_pts[hole_off[h], 1]
     m = min(first.shape[0], begin + count)
     pieces = 2 * (m - begin)
-    meta = np.zeros((pieces, 11), np.int64)
-    scores = np.zeros((pieces, 12))
-    splits = np.zeros((pieces, n_holes + 1), np.int64)
+    meta = np.zeros((pieces, 11 + 2 * n_holes), np.int64)
+    scores = np.zeros((pieces, 16))
     # room for one cut's pieces (the search mostly stops at the first); more on demand
     size_c = n + 2 + 2 * (starts[begin + 1] - starts[begin]) if m > begin else 0
     size_r = size_c + 2 * (rays.shape[0] - n)
-    c_all = np.empty((size_c, 2))
-    nr_all = np.empty((size_c, 2))
-    r_all = np.empty((size_r, 2))
+    cn_all = np.empty((2, size_c, 2))
+    rxy_all = np.empty((2, size_r, 2))
     aw_all = np.empty(size_r, np.bool_)
-    xy_all = np.empty((size_r, 2))
-    held = np.empty(2 * n_holes, np.int64)
-    kc = kr = kh = 0
+    kc = kr = 0
     done = 0
     for c in range(begin, m):
         fi, fj = first[c], second[c]
@@ -258,32 +274,29 @@ def evaluate_cuts(contour, normals, rays, away, hole_starts, hole_first, hole_pt
         kind0, conf0, fit0, xy0, row0 = _fit_piece(
             arrs0, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
             round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
-        if _fails(kind0, arrs0[0], holes0, hole_pts, hole_off, may_split, area_scale, min_pair):
+        area0 = _area_mm2(arrs0[0], holes0, hole_pts, hole_off, area_scale)
+        if kind0 < 0 and not (may_split and area0 > min_pair):
             continue
         kind1, conf1, fit1, xy1, row1 = _fit_piece(
             arrs1, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nominal, sigmas,
             round_, round_facets, faceted, facet_w, max_fit, hopeless, gap, min_conf)
-        if _fails(kind1, arrs1[0], holes1, hole_pts, hole_off, may_split, area_scale, min_pair):
+        area1 = _area_mm2(arrs1[0], holes1, hole_pts, hole_off, area_scale)
+        if kind1 < 0 and not (may_split and area1 > min_pair):
             continue
         need_c = kc + arrs0[0].shape[0] + arrs1[0].shape[0]
         need_r = kr + arrs0[2].shape[0] + arrs1[2].shape[0]
-        if need_c > c_all.shape[0]:
-            c_all, nr_all = _grown(c_all, kc, need_c), _grown(nr_all, kc, need_c)
-        if need_r > r_all.shape[0]:
-            r_all, xy_all = _grown(r_all, kr, need_r), _grown(xy_all, kr, need_r)
-            aw = np.empty(max(need_r, 2 * aw_all.shape[0]), np.bool_)
+        if need_c > cn_all.shape[1]:
+            cn_all = _grown(cn_all, kc, need_c)
+        if need_r > rxy_all.shape[1]:
+            rxy_all = _grown(rxy_all, kr, need_r)
+            aw = np.empty(rxy_all.shape[1], np.bool_)
             aw[:kr] = aw_all[:kr]
             aw_all = aw
-        if kh + holes0.shape[0] + holes1.shape[0] > held.shape[0]:
-            more = np.empty(2 * held.shape[0] + holes0.shape[0] + holes1.shape[0], np.int64)
-            more[:kh] = held[:kh]
-            held = more
-        kc, kr, kh = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, meta, scores,
-                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
-        kc, kr, kh = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, meta, scores,
-                            splits, c_all, nr_all, r_all, aw_all, xy_all, held, kc, kr, kh)
+        kc, kr = _store(p, arrs0, holes0, kind0, conf0, fit0, xy0, row0, area0, hole_pts,
+                        hole_off, meta, scores, cn_all, rxy_all, aw_all, kc, kr)
+        kc, kr = _store(p + 1, arrs1, holes1, kind1, conf1, fit1, xy1, row1, area1, hole_pts,
+                        hole_off, meta, scores, cn_all, rxy_all, aw_all, kc, kr)
         if kind0 < 0 or kind1 < 0 or (fit0 + fit1) / 2 < good:
             break
     pieces = 2 * done
-    return (meta[:pieces], scores[:pieces], splits[:pieces], c_all[:kc], nr_all[:kc],
-            r_all[:kr], aw_all[:kr], xy_all[:kr], held[:kh])
+    return meta[:pieces], scores[:pieces], cn_all[:, :kc], rxy_all[:, :kr], aw_all[:kr]

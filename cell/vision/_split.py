@@ -27,8 +27,9 @@ from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts
 from cell.vision._cutraster import owned_pieces, piece_blobs
 from cell.vision._cutsearch import cut_candidates, int_outline, search_constants
-from cell.vision._footprint import Fit, Geometry, fit_kinds, fit_of
+from cell.vision._footprint import Fit, Geometry, fit_kinds
 from cell.vision._hull import convex_hull
+from cell.vision._polyfill import fill_within
 from cell.vision._segment import FrameView
 from cell.vision.kind import KIND_NAMES
 
@@ -61,7 +62,9 @@ _POOR = 13.0
 
 _NO_HOLES = np.empty((0, 2))
 
-Piece = tuple[Blob, str, float, Fit, float]  # blob, kind, confidence, footprint, fit
+# blob, kind, confidence, footprint, fit, table-plane area (mm^2), pixel centroid (None: not
+# yet known)
+Piece = tuple[Blob, str, float, Fit, float, float, tuple[float, float] | None]
 
 
 def split_blob(blob: Blob, view: FrameView, *,
@@ -72,18 +75,19 @@ def split_blob(blob: Blob, view: FrameView, *,
     limit = _ACCEPT
     if math.isfinite(whole_fit):  # the whole blob fits a kind, poorly: a clearly better cut wins
         limit = max(_ACCEPT, min(whole_fit - _BETTER, _POOR))
+    if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
+        return []
     pieces = _split(blob, view, 0, [_BUDGET], limit)
-    for p in pieces:  # (only the pieces kept: the search never reads a centroid)
-        p[3].centroid_px = blob_centroid(p[0])
+    for p in pieces:  # (the outline cuts' pieces come with theirs; the others', if kept)
+        p[3].centroid_px = p[6] if p[6] is not None else blob_centroid(p[0])
     return [p[:4] for p in pieces]
 
 
 def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
            limit: float = _ACCEPT) -> list[Piece]:
-    """:func:`split_blob` at recursion ``depth``, each piece with its fit score; ``budget``
-    holds how many more cuts the whole search may evaluate."""
-    if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
-        return []
+    """:func:`split_blob` at recursion ``depth``, of a blob larger than ``_MIN_PAIR_MM2``,
+    each piece with its fit score; ``budget`` holds how many more cuts the whole search
+    may evaluate."""
     best: list[Piece] = []
     best_cost = math.inf
     deferred: list[list[Piece]] = []  # cuts with a piece that may split further
@@ -103,7 +107,7 @@ def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
             best, best_cost = pieces, cost
         if best_cost < _GOOD:
             break  # every piece fits its kind well: no need to try more cuts
-        if depth < 2 and any(p[4] >= _ACCEPT and _may_split(p, view) for p in pieces):
+        if depth < 2 and any(p[4] >= _ACCEPT and _may_split(p) for p in pieces):
             deferred.append(pieces)
     if best_cost >= _GOOD:
         for pieces in deferred:  # the cuts whose ill-fitting pieces may be parts touching
@@ -123,8 +127,8 @@ def _split(blob: Blob, view: FrameView, depth: int, budget: list[int],
     return best
 
 
-def _may_split(piece: Piece, view: FrameView) -> bool:
-    return view.geo.area_mm2(piece[0]) > _MIN_PAIR_MM2
+def _may_split(piece: Piece) -> bool:
+    return piece[5] > _MIN_PAIR_MM2
 
 
 def _split_further(pieces: list[Piece], view: FrameView, depth: int, budget: list[int], *,
@@ -136,7 +140,7 @@ def _split_further(pieces: list[Piece], view: FrameView, depth: int, budget: lis
         if p[1] != "unknown" and (unknown_only or p[4] < _ACCEPT):
             out.append(p)
             continue
-        more = _split(p[0], view, depth + 1, budget) if _may_split(p, view) else []
+        more = _split(p[0], view, depth + 1, budget) if _may_split(p) else []
         if more:
             out.extend(more)
         elif p[1] == "unknown":
@@ -152,12 +156,12 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores, budget: lis
     outline itself (:func:`_polygon_cuts`); then, when ``cores()`` says so after those,
     cores of the distance transform, on the rasterised blob (:func:`_core_cuts`)."""
     geo, conf = view.geo, view.settings.min_kind_confidence
-    for pieces, cut in _polygon_cuts(blob, geo, conf, may_split, budget):
+    for pieces in _polygon_cuts(blob, geo, conf, may_split, budget):
         if budget[0] <= 0:
             return
         budget[0] -= 1
-        yield _judge(pieces, view, may_split, cut)
-    if not cores():
+        yield pieces
+    if budget[0] <= 0 or not cores():
         return
     x, y, bw, bh = blob.mask_box
     ox, oy = x - 1, y - 1
@@ -182,25 +186,28 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores, budget: lis
 
 def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: bool,
                   budget: list[int]):
-    """Pieces (two blobs, or None for a cut with a speck) and the cut's length (points)
-    for straight cuts between pairs of deep (>= 2.5 px) convexity defects of the outline
-    (``cv2.convexHull`` and ``cv2.convexityDefects`` as ported in :mod:`cell.vision._hull`;
-    :mod:`cell.vision._cutsearch` makes the cuts).
+    """Pieces (two, or None for a cut with a speck or with a piece that fits no kind and
+    may not be split) of straight cuts between pairs of deep (>= 2.5 px) convexity defects
+    of the outline (``cv2.convexHull`` and ``cv2.convexityDefects`` as ported in
+    :mod:`cell.vision._hull`; :mod:`cell.vision._cutsearch` makes the cuts).
     A piece is the outline between the two defect points, closed by the cut, with the
     holes inside it; its rays come from the blob's (no new contour tracing). The cuts
     are built and fitted in batches (:func:`cell.vision._cutfit.evaluate_cuts`), each
     up to the next cut the search in :func:`_split` may stop at or recurse from."""
     if budget[0] <= 0:
         return
-    geo.prepare([blob])
+    if blob.rays is None:
+        geo.prepare([blob])
     k = search_constants(geo, min_confidence)
-    holes = np.array([h[0] for h, _ in blob.holes]) if blob.holes else _NO_HOLES
-    hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else holes
+    hole_pts = np.concatenate([h for h, _ in blob.holes]) if blob.holes else _NO_HOLES
     status, res = -1, None
     if k.pinhole:  # the usual case: the cuts and their first batch in one call
-        status, first, second, starts, cut, normals, rays, away, res = first_cuts(
-            blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes, hole_pts,
+        status, index, points, away, res = first_cuts(
+            blob.contour, blob.normals, blob.rays, blob.away, blob.splits, hole_pts,
             budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.camera, *k.fit)
+        m = (len(index) - 1) // 3
+        first, second, starts = index[:m], index[m : 2 * m], index[2 * m :]
+        cut, normals, rays = points[0], points[1], points[2]
     if status == 0:
         return
     if status < 0:  # another camera model, or a hull OpenCV must make
@@ -222,47 +229,56 @@ def _polygon_cuts(blob: Blob, geo: Geometry, min_confidence: float, may_split: b
     c = 0
     while c < len(ends) - 1 and budget[0] > 0:
         if res is None:
-            res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits, holes,
+            res = evaluate_cuts(blob.contour, blob.normals, blob.rays, blob.away, blob.splits,
                                 hole_pts, first, second, starts, cut, normals, rays, away, c,
                                 budget[0], may_split, k.area_scale, _MIN_PAIR_MM2, _GOOD, *k.fit)
-        meta, fits, held = res[0].tolist(), res[1][:, :2].tolist(), res[8].tolist()
+        meta, scores = res[0].tolist(), res[1].tolist()
         for p in range(0, len(meta), 2):
-            yield _batch_pieces(blob, res, meta, fits, held, p), ends[c + 1] - ends[c]
+            yield _batch_pieces(blob, res, meta, scores, p, ends[c + 1] - ends[c])
             c += 1
         res = None
 
 
-def _batch_pieces(blob: Blob, res: tuple, meta: list, fits: list, held: list,
-                  p: int) -> list[Piece] | None:
+def _batch_pieces(blob: Blob, res: tuple, meta: list, scores: list, p: int,
+                  cut: int) -> list[Piece] | None:
     """The two pieces, with their best kinds, of the cut whose pieces are rows ``p`` and
-    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta``, ``fits``
-    and ``held`` its first array, its second's first two columns and its last array, as
-    lists); None when a piece is a speck, or fits no kind and may not be split (as
-    :func:`_judge` finds)."""
+    ``p + 1`` of an :func:`~cell.vision._cutfit.evaluate_cuts` result (``meta`` and
+    ``scores`` its first two arrays as lists); None when the cut failed (a piece is a
+    speck, or fits no kind and may not be split, as :func:`_judge` finds). ``cut``: each
+    piece's outline ends with that many points of the cut."""
     if meta[p][4] == -2:
         return None
-    _, scores, splits, c, nr, r, aw, xy, _ = res
+    imeta, rows, cn, rxy, aw = res
+    c, nr, r, xy = cn[0], cn[1], rxy[0], rxy[1]
+    held = 11 + len(blob.holes)  # the column of a piece's first hole in meta
     out = []
     for q in (p, p + 1):
-        c0, c1, r0, r1, kind, h0, h1, bx, by, bw, bh = meta[q]
-        piece = Blob(c[c0:c1], nr[c0:c1], [blob.holes[h] for h in held[h0:h1]],
-                     (bx, by, bw, bh), False)
-        spl = splits[q, : 1 + h1 - h0]
-        piece.rays, piece.away, piece.splits = r[r0:r1], aw[r0:r1], spl
-        conf, fit = fits[q]
-        out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", conf,
-                    fit_of(xy[r0:r1], scores[q, 2:], spl), fit))
+        mq = meta[q]
+        c0, c1, r0, r1, kind, nh, bx, by, bw, bh = mq[:10]
+        sq = scores[q]
+        holes = [blob.holes[h] for h in mq[held : held + nh]] if nh else []
+        spl = imeta[q, 10 : 11 + nh]
+        piece = Blob(c[c0:c1], nr[c0:c1], holes, (bx, by, bw, bh), False, None, r[r0:r1],
+                     aw[r0:r1], spl)
+        fit = Fit(rows[q, 2:12], xy[r0:r1], tuple(mq[10 : 11 + nh]), cut=cut)
+        out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", sq[0], fit, sq[1],
+                    sq[15], (sq[13], sq[14]) if sq[12] else None))
     return out
 
 
 def _piece_roi(piece: Blob, parent: Blob) -> tuple[int, int, np.ndarray] | None:
-    """A polygon piece's own pixels: its outline filled, within the parent's pixels."""
+    """A polygon piece's own pixels: its outline filled, within the parent's pixels
+    (:func:`cell.vision._polyfill.fill_within`: ``cv2.fillPoly`` and ``cv2.bitwise_and``
+    in one compiled call)."""
     if parent.roi is None:
         return None
     x0, y0, mask = parent.roi
-    own = np.zeros_like(mask)
-    cv2.fillPoly(own, [int_outline(piece.contour, piece.normals)], 255, offset=(-x0, -y0))
-    return x0, y0, cv2.bitwise_and(own, mask)
+    ok, own = fill_within(mask, piece.contour, piece.normals, x0, y0)
+    if not ok:  # the outline leaves the parent's box: OpenCV clips it
+        own = np.zeros_like(mask)
+        cv2.fillPoly(own, [int_outline(piece.contour, piece.normals)], 255, offset=(-x0, -y0))
+        own = cv2.bitwise_and(own, mask)
+    return x0, y0, own
 
 
 def _core_cuts(roi: np.ndarray):
@@ -277,20 +293,17 @@ def _core_cuts(roi: np.ndarray):
 
 def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece] | None:
     """Each piece with its best kind (:func:`_judge`)."""
-    fits = fit_kinds(subs, view.geo, view.settings.min_kind_confidence)
-    pieces = [(sub, kind, conf, res, fit) for sub, (kind, conf, fit, res) in zip(subs, fits, strict=True)]
-    return _judge(pieces, view, may_split)
+    geo = view.geo
+    fits = fit_kinds(subs, geo, view.settings.min_kind_confidence)
+    pieces = [(sub, kind, conf, res, fit, geo.area_mm2(sub), None)
+              for sub, (kind, conf, fit, res) in zip(subs, fits, strict=True)]
+    return _judge(pieces, may_split)
 
 
-def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
-           cut: int = 0) -> list[Piece] | None:
-    """The pieces, or None when there are none or one fits no kind and cannot be split
-    further. ``cut``: each piece's outline ends with that many points of a straight cut."""
-    if pieces is None:
-        return None
+def _judge(pieces: list[Piece], may_split: bool) -> list[Piece] | None:
+    """The pieces, or None when one fits no kind and cannot be split further."""
     for p in pieces:
-        p[3].cut = cut
-        if p[1] == "unknown" and not (may_split and _may_split(p, view)):
+        if p[1] == "unknown" and not (may_split and _may_split(p)):
             return None
     return pieces
 
@@ -298,8 +311,8 @@ def _judge(pieces: list[Piece] | None, view: FrameView, may_split: bool,
 def warm_up() -> None:
     """Run both kinds of cut (on the outline: cut generation, pieces and fits, in one
     call and, as for a camera with lens distortion, kernel by kernel; on the raster:
-    cores, owners, pieces' contours) and the pieces' centroid once on a made-up blob of
-    two touching discs, so their first real use loads nothing."""
+    cores, owners, pieces' contours), the pieces' centroid and own pixels once on a
+    made-up blob of two touching discs, so their first real use loads nothing."""
     roi = np.zeros((40, 70), np.uint8)
     cv2.circle(roi, (20, 20), 14, 255, -1)
     cv2.circle(roi, (47, 20), 14, 255, -1)
@@ -315,3 +328,4 @@ def warm_up() -> None:
         for _ in _polygon_cuts(blob, geo, 0.5, True, [_BUDGET]):
             pass
     blob_centroid(blob)
+    fill_within(roi, blob.contour, blob.normals, 0, 0)

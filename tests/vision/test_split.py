@@ -14,6 +14,7 @@ import cell.vision._split as split_module
 from cell.camera import CameraModel
 from cell.catalogue import KINDS
 from cell.vision._blob import blobs_of_mask
+from cell.vision._centroid import blob_centroid
 from cell.vision._footprint import Geometry
 from cell.vision._segment import FrameView
 from cell.vision._split import split_blob
@@ -101,17 +102,17 @@ def test_a_blob_of_no_parts_is_given_up_within_the_budget(monkeypatch):
     star = np.c_[r * np.cos(t), 0.45 + r * np.sin(t)]
     blobs = blobs_of_mask(_mask_of(camera, [star], 0.003), (0, 0))
     calls = {"n": 0}
-    judge, evaluate = split_module._judge, split_module._evaluate
+    pieces, evaluate = split_module._batch_pieces, split_module._evaluate
 
-    def count_judge(*a, **k):
+    def count_pieces(*a, **k):  # an outline cut
         calls["n"] += 1
-        return judge(*a, **k)
+        return pieces(*a, **k)
 
-    def count_evaluate(subs, view, may_split):
+    def count_evaluate(subs, view, may_split):  # a raster cut
         calls["n"] += 1
         return evaluate(subs, view, may_split)
 
-    monkeypatch.setattr(split_module, "_judge", count_judge)
+    monkeypatch.setattr(split_module, "_batch_pieces", count_pieces)
     monkeypatch.setattr(split_module, "_evaluate", count_evaluate)
     assert split_blob(blobs[0], _view(camera)) == []
     assert 4 <= calls["n"] <= split_module._BUDGET  # it did search, and stopped in budget
@@ -127,3 +128,26 @@ def test_a_single_part_blob_is_not_cut(kind):
     blobs = blobs_of_mask(_mask_of(camera, [outline], KINDS[kind].height), (0, 0))
     assert split_blob(blobs[0], _view(camera)) == []
 
+
+
+@pytest.mark.parametrize("holes", [0, 1, 2])
+def test_outline_pieces_carry_blob_centroid_and_area_to_the_last_bit(holes):
+    """Every piece the compiled outline cuts give (of two touching washers, with up to
+    two holes) comes with the centroid of ``blob_centroid`` and the area of
+    ``Geometry.area_mm2``, equal to the last bit."""
+    camera = _camera()
+    view = _view(camera)
+    centres = (-0.02, 0.45), (0.0105, 0.452)
+    mask = _mask_of(camera, [_disc(c) for c in centres], 0.002)
+    for r in [_disc(c, 0.005) for c in centres][:holes]:
+        px = camera.project(np.c_[r, np.full(len(r), PLANE_Z + 0.002)])
+        cv2.fillPoly(mask, [np.round(px).astype(np.int32)], 0)
+    blob = blobs_of_mask(mask, (0, 0))[0]
+    assert len(blob.holes) == holes
+    seen = 0
+    for pieces in split_module._polygon_cuts(blob, view.geo, 0.5, True, [24]):
+        for p in pieces or ():
+            assert p[6] == blob_centroid(p[0])
+            assert p[5] == view.geo.area_mm2(p[0])
+            seen += 1
+    assert seen >= 2

@@ -221,12 +221,6 @@ def fit_arguments(geo: Geometry, min_confidence: float) -> tuple:
             _REFINE_GAP, float(min_confidence))
 
 
-def fit_of(xy: np.ndarray, row: np.ndarray, splits: np.ndarray) -> Fit:
-    """The ``Fit`` of one footprint from its points ``xy`` (outline, then holes, ending at
-    the cumulative ``splits``) and its descriptor ``row`` (built when first read)."""
-    return Fit(row, xy, tuple(splits.tolist()))
-
-
 def edge_heights(kind: str) -> tuple[float, float]:
     """Heights above the belt (m) of a kind's silhouette edges: facing the nadir, away."""
     h = KINDS[kind].height

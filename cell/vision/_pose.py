@@ -174,3 +174,21 @@ def bolt_point(p, cx, cy, rect_angle):  # pragma: no cover (compiled)
     mid = 0.5 * (s_max + s_min) + to_head * _BOLT_END_OFFSET
     return cx + mid * ax, cy + mid * ay
 
+
+
+@njit(cache=True)
+def detection_poses(pts, starts, rows, yaw, xy):  # pragma: no cover (compiled)
+    """Yaw and position of each of D detections in one call: outline d is
+    ``pts[starts[d]:starts[d + 1]]`` (float64, C-contiguous), ``rows`` (D, 7) float64 its
+    centroid x, y, rectangle angle, kind code (:func:`kind_yaw`; < 0: no yaw), symmetry
+    order n (0: continuous, yaw 0), cut and whether its position is the bolt's reference
+    point (1) or the centroid (0). Fills ``yaw`` (D,) and ``xy`` (D, 2)."""
+    for d in range(rows.shape[0]):
+        p = pts[starts[d] : starts[d + 1]]
+        cx, cy, angle = rows[d, 0], rows[d, 1], rows[d, 2]
+        code, n, cut = np.int64(rows[d, 3]), np.int64(rows[d, 4]), np.int64(rows[d, 5])
+        yaw[d] = kind_yaw(p, cx, cy, angle, code, n, cut) if code >= 0 and n != 0 else 0.0
+        if rows[d, 6] != 0:
+            xy[d, 0], xy[d, 1] = bolt_point(p, cx, cy, angle)
+        else:
+            xy[d, 0], xy[d, 1] = cx, cy

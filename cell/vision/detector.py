@@ -54,12 +54,12 @@ from cell.vision._footprint import _MID, Fit, Footprints, Geometry, fit_kinds
 from cell.vision._footprint import warm_up as _warm_up
 from cell.vision._part_material import part_materials
 from cell.vision._part_material import warm_up as _warm_up_material
-from cell.vision._pose import bolt_point
+from cell.vision._pose import RECTANGLE, detection_poses
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._segment import warm_up as _warm_up_segment
 from cell.vision._split import split_blob
 from cell.vision._split import warm_up as _warm_up_split
-from cell.vision.kind import footprint, footprint_yaw, outline_yaw
+from cell.vision.kind import YAW_CODES, footprint, footprint_yaw
 from cell.vision.settings import VisionSettings
 
 __all__ = ["Detection", "PartDetector"]
@@ -142,11 +142,7 @@ class PartDetector:
         found.extend(self._partials([b for b in blobs if b.partial], geo))
         found.sort(key=lambda f: (f[3].centroid_px[0], f[3].centroid_px[1]))
         materials = part_materials(view, [f[0] for f in found])
-        out = []
-        for i, (blob, kind, conf, res) in enumerate(found, start=1):
-            material, m_conf = materials[i - 1]
-            out.append(_make_detection(i, blob, kind, conf, res, material, m_conf))
-        return out
+        return _make_detections(found, materials)
 
     def _geometry(self, camera: CameraModel) -> Geometry:
         """The camera's ray geometry, kept while frames come from an equal camera model."""
@@ -196,34 +192,48 @@ class PartDetector:
         return out
 
 
-def _make_detection(i, blob, kind, conf, res, material, m_conf) -> Detection:
-    """Detection ``i`` of a part: its yaw from the footprint's outline, its position the
-    footprint's centroid (a bolt's: :func:`~cell.vision._pose.bolt_point`), read from the
-    ``Fit``'s descriptor row without building its ``Footprint``."""
-    _, _, cx, cy, length, width, angle = res.row[:7].tolist()
-    known = kind in KINDS
-    position = None
-    if kind == "bolt":
-        outline = np.ascontiguousarray(res.outline)
-        if not blob.partial:
-            position = bolt_point(outline, cx, cy, angle)
-    else:
-        outline = res.outline
-        if not blob.partial:
-            position = (cx, cy)
-    return Detection(
-        id=i,
-        material=material,
-        material_confidence=round(float(m_conf), 4),
-        kind=kind,
-        kind_confidence=round(float(conf), 4),
-        centroid=(float(res.centroid_px[0]), float(res.centroid_px[1])),
-        yaw=outline_yaw(outline, cx, cy, angle, kind, res.cut) if known else 0.0,
-        symmetry=KINDS[kind].symmetry if known else 0,
-        position=position,
-        size=(length, width),
-        partial=blob.partial,
-    )
+def _make_detections(found: list[tuple[Blob, str, float, Fit]],
+                     materials: list[tuple[str, float]]) -> list[Detection]:
+    """The detections of the parts ``found`` (blob, kind, confidence, Fit) with their
+    ``materials``, numbered from 1: each yaw from its footprint's outline, each position
+    the footprint's centroid (a bolt's: :func:`~cell.vision._pose.bolt_point`), read from
+    the ``Fit``'s descriptor row without building its ``Footprint``; all poses in one
+    compiled call (:func:`~cell.vision._pose.detection_poses`)."""
+    if not found:
+        return []
+    rows = np.empty((len(found), 7))
+    outlines, sizes = [], []
+    for d, (blob, kind, _, res) in enumerate(found):
+        known = kind in KINDS
+        n = KINDS[kind].symmetry if known else 0
+        rows[d, :3] = res.row[2], res.row[3], res.row[6]
+        rows[d, 3:] = (YAW_CODES.get(kind, RECTANGLE) if known else -1, n, res.cut,
+                       kind == "bolt" and not blob.partial)
+        outlines.append(res.outline)
+        sizes.append(len(res.outline))
+    starts = np.zeros(len(found) + 1, np.int64)
+    np.cumsum(sizes, out=starts[1:])
+    yaw, xy = np.empty(len(found)), np.empty((len(found), 2))
+    detection_poses(np.ascontiguousarray(np.concatenate(outlines), dtype=np.float64), starts,
+                    rows, yaw, xy)
+    out = []
+    for i, ((blob, kind, conf, res), (material, m_conf), y, (px, py)) in enumerate(
+            zip(found, materials, yaw.tolist(), xy.tolist(), strict=True), start=1):
+        length, width = res.row[4:6].tolist()
+        out.append(Detection(
+            id=i,
+            material=material,
+            material_confidence=round(float(m_conf), 4),
+            kind=kind,
+            kind_confidence=round(float(conf), 4),
+            centroid=(float(res.centroid_px[0]), float(res.centroid_px[1])),
+            yaw=y,
+            symmetry=KINDS[kind].symmetry if kind in KINDS else 0,
+            position=None if blob.partial else (px, py),
+            size=(length, width),
+            partial=blob.partial,
+        ))
+    return out
 
 
 _WARM: set[int] = set()

@@ -226,7 +226,7 @@ def classify_kind(scores: dict[str, float]) -> tuple[str, float, float]:
     return names[best], float(lik[best] / lik.sum()), float(s[best])
 
 
-_YAW_CODES = {"hex_nut": HEX_NUT, "square_nut": SQUARE_NUT, "l_bracket": L_BRACKET, "bolt": BOLT}
+YAW_CODES = {"hex_nut": HEX_NUT, "square_nut": SQUARE_NUT, "l_bracket": L_BRACKET, "bolt": BOLT}
 
 
 def outline_yaw(outline: np.ndarray, centroid_x: float, centroid_y: float, rect_angle: float,
@@ -237,7 +237,7 @@ def outline_yaw(outline: np.ndarray, centroid_x: float, centroid_y: float, rect_
     if n == 0:
         return 0.0
     return kind_yaw(np.ascontiguousarray(outline, dtype=np.float64), centroid_x, centroid_y,
-                    rect_angle, _YAW_CODES.get(kind, RECTANGLE), n, cut)
+                    rect_angle, YAW_CODES.get(kind, RECTANGLE), n, cut)
 
 
 def footprint_yaw(fp: Footprint, kind: str, *, cut: int = 0) -> float:

@@ -13,9 +13,17 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cell.catalogue import KINDS
 from cell.vision._footprint import bolt_origin
-from cell.vision._pose import CUT_GUARD, flat_angle, second_moment_angle
-from cell.vision.kind import Footprint, footprint, footprint_yaw
+from cell.vision._pose import (
+    CUT_GUARD,
+    RECTANGLE,
+    bolt_point,
+    detection_poses,
+    flat_angle,
+    second_moment_angle,
+)
+from cell.vision.kind import YAW_CODES, Footprint, footprint, footprint_yaw, outline_yaw
 from tests.vision.test_kind import OUTLINES, _turn
 
 
@@ -100,3 +108,31 @@ def test_second_moments_are_opencvs(pts, dx, dy):
     p = np.array(pts) + (dx, dy)
     assert second_moment_angle(p) == _second_moment_angle(p)
 
+
+
+def test_detection_poses_are_each_detections_yaw_and_position():
+    kinds = ["hex_nut", "square_nut", "l_bracket", "bolt", "bolt", "washer", "unknown"]
+    rng = np.random.default_rng(5)
+    fps, rows = [], []
+    for i, kind in enumerate(kinds):
+        fp = footprint(_jittered(kind if kind in OUTLINES else "hex_nut",
+                                 float(rng.uniform(0, 6)), 0.01 * i, -0.02 * i, i))
+        cut = 7 if kind == "hex_nut" else 0
+        known = kind in KINDS
+        partial = i == 4  # a bolt at the border: no position
+        rows.append((fp.centroid[0], fp.centroid[1], fp.rect_angle,
+                     YAW_CODES.get(kind, RECTANGLE) if known else -1,
+                     KINDS[kind].symmetry if known else 0, cut, kind == "bolt" and not partial))
+        fps.append((fp, kind, cut, partial))
+    outlines = [fp.outline for fp, *_ in fps]
+    starts = np.concatenate([[0], np.cumsum([len(o) for o in outlines])]).astype(np.int64)
+    yaw, xy = np.empty(len(kinds)), np.empty((len(kinds), 2))
+    detection_poses(np.concatenate(outlines), starts, np.array(rows, np.float64), yaw, xy)
+    for d, (fp, kind, cut, partial) in enumerate(fps):
+        assert yaw[d] == (outline_yaw(fp.outline, *fp.centroid, fp.rect_angle, kind, cut)
+                          if kind in KINDS else 0.0)
+        if kind == "bolt" and not partial:
+            assert tuple(xy[d]) == bolt_point(np.ascontiguousarray(fp.outline), *fp.centroid,
+                                              fp.rect_angle)
+        else:
+            assert tuple(xy[d]) == tuple(fp.centroid)

@@ -267,4 +267,7 @@ def _warm_up_kernels(detector: PartDetector) -> None:
     _warm_up_split()
     ring = np.stack([np.cos(np.arange(12) * np.pi / 6), np.sin(np.arange(12) * np.pi / 6)], 1)
     footprint_yaw(footprint(0.01 * ring), "hex_nut", cut=2)  # the nuts' flat angle
+    # the poses of detections (the made-up frames need not yield any): a bolt's, 3-fold
+    detection_poses(0.01 * ring, np.array([0, len(ring)]), np.array([[0, 0, 0, 3, 2, 0, 1.0]]),
+                    np.empty(1), np.empty((1, 2)))
     _WARM.add(1)

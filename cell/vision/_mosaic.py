@@ -21,15 +21,9 @@ import numpy as np
 from numba import njit
 
 from cell.vision._mask_kernel import above, and_above, frame, max3, open3
-from cell.vision._segment_kernel import (
-    border,
-    interpolate_x,
-    is_shadow,
-    lerp_rows,
-    max_diff,
-    upper_median,
-)
+from cell.vision._segment_kernel import border, is_shadow, max_diff, upper_median
 from cell.vision._smooth_kernel import box_row, gaussian_window
+from cell.vision._upscale_kernel import window_background
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -104,7 +98,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     tp = taps.astype(np.int32)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
-    inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
+    inter = np.empty((small, wmax * 3), np.uint16)  # small rows interpolated along x
+    cols_at, cols_weights = np.empty((2, wmax), np.uint64), np.empty((2, wmax), np.uint16)
     diff = np.empty(wmax * 3, np.uint8)
     near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
     near_tmp = np.empty((hmax // 2 + 3, wmax // 2 + 1), np.uint8)
@@ -128,7 +123,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
             gaussian_window(win_buf, wide, h, w, pad - r, tp, colf, accf, srcf)
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
-        _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
+        window_background(bg_small, rows, cols, x0, y0, h, w, inter, cols_at, cols_weights,
+                          bg)
         for y in range(h):
             if gauss:
                 srow = srcf[y * wide : y * wide + 3 * w]
@@ -207,18 +203,6 @@ def _box(win, o, h, w, k, sums, acc, src):  # pragma: no cover (compiled)
             for e in range(n):
                 col[e] += row[e]
         box_row(col, k, acc[: 3 * w], src[y, : 3 * w])
-
-
-@njit(cache=True)
-def _background(bg_small, rows, cols, x0, y0, h, w, inter, bg):  # pragma: no cover
-    """``bg`` (h, 3 w): the full-scale background of window (x0, y0, h, w)."""
-    lo = rows[0, y0]
-    for i in range(lo, rows[1, y0 + h - 1] + 1):
-        interpolate_x(bg_small[i], cols[0, x0 : x0 + w], cols[1, x0 : x0 + w],
-                      cols[2, x0 : x0 + w], cols[3, x0 : x0 + w], inter[i - lo, : 3 * w])
-    for y in range(h):
-        lerp_rows(inter[rows[0, y0 + y] - lo], inter[rows[1, y0 + y] - lo], rows[2, y0 + y],
-                  rows[3, y0 + y], bg[y, : 3 * w])
 
 
 @njit(cache=True)

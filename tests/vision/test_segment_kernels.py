@@ -148,10 +148,10 @@ def test_threshold_and_opening_are_opencvs():
 
 @pytest.mark.parametrize("shape", [(60, 80), (9, 13)])
 def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
-    """The refinement's background of a window (integer tables, float32 rows) is what
+    """The refinement's background of a window (integer tables, 16-bit rows) is what
     ``cv2.resize`` (bilinear) of the whole 1/8-scale estimate gives there."""
-    from cell.vision._mosaic import _background
     from cell.vision._segment_kernel import upscale_axis
+    from cell.vision._upscale_kernel import window_background
 
     hs, ws = shape
     rng = np.random.default_rng(hs)
@@ -162,7 +162,8 @@ def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
     for x0, y0, x1, y1 in ((0, 0, 8 * ws, 8 * hs), (3, 5, 40, 33), (8 * ws - 9, 8 * hs - 7,
                                                                       8 * ws, 8 * hs)):
         h, w = y1 - y0, x1 - x0
-        inter = np.empty((hs, 3 * w), np.float32)
+        inter = np.empty((hs, 3 * w), np.uint16)
         got = np.empty((h, 3 * w), np.uint8)
-        _background(small, rows, cols, x0, y0, h, w, inter, got)
+        window_background(small, rows, cols, x0, y0, h, w, inter, np.empty((2, w), np.uint64),
+                          np.empty((2, w), np.uint16), got)
         np.testing.assert_array_equal(got.reshape(h, w, 3), full[y0:y1, x0:x1])

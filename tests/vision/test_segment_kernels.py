@@ -71,21 +71,47 @@ def test_gaussian_taps_are_opencvs_kernel_in_256ths():
 
 
 @pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0), (9, 1.5)])
-def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma):
+@pytest.mark.parametrize(("hh", "ww"), [(48, 64), (37, 63)])
+def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma, hh, ww):
     """Vertical then horizontal sums of the 1/256 taps (mirrored borders, as
-    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16."""
+    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16, at every
+    other pixel (odd sizes too: the last column and row are kept)."""
     rng = np.random.default_rng(k)
-    img = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
-    bg = rng.integers(0, 256, (24, 3 * 32), dtype=np.uint8)
+    img = rng.integers(0, 256, (hh, ww, 3), dtype=np.uint8)
+    h, w = round(hh / 2), round(ww / 2)
+    bg = rng.integers(0, 256, (h, 3 * w), dtype=np.uint8)
     taps = smoothing_taps(k, sigma)
-    got = np.empty((24, 32), np.uint8)
-    box_difference(img.reshape(48, 3 * 64), bg, k, taps, got)
+    got = np.empty((h, w), np.uint8)
+    box_difference(img.reshape(hh, 3 * ww), bg, k, taps, got)
     r, t = k // 2, taps.astype(np.int64)
     p = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REFLECT_101).astype(np.int64)
-    vert = sum(t[j] * p[j : j + 48] for j in range(k))
-    smooth = (sum(t[j] * vert[:, j : j + 64] for j in range(k)) + 32768) >> 16
-    expect = np.abs(smooth[::2, ::2] - bg.reshape(24, 32, 3)).max(axis=2)
+    vert = sum(t[j] * p[j : j + hh] for j in range(k))
+    smooth = (sum(t[j] * vert[:, j : j + ww] for j in range(k)) + 32768) >> 16
+    expect = np.abs(smooth[::2, ::2][:h, :w] - bg.reshape(h, w, 3)).max(axis=2)
     np.testing.assert_array_equal(got, expect)
+
+
+@pytest.mark.parametrize("k", [1, 3, 5, 7, 9])
+@pytest.mark.parametrize("n_px", [40, 41])
+def test_even_horizontal_is_the_horizontal_pass_at_even_pixels(k, n_px):
+    """The horizontal pass at the even pixels alone, from the row split into even and
+    odd pixels, is the full pass (:func:`horizontal`) kept at every other pixel."""
+    from cell.vision._smooth_kernel import _split_pixels, even_horizontal, horizontal
+
+    rng = np.random.default_rng(n_px + k)
+    taps = smoothing_taps(k, 1.5).astype(np.int32)
+    col = rng.integers(0, 65281, 3 * (n_px + k - 1), dtype=np.uint16)  # (at most 255 x 256)
+    full = np.empty(3 * n_px, np.uint8)
+    horizontal(col, taps, np.empty(3 * n_px, np.int32), full)
+    pairs = (n_px + k) // 2
+    padded = np.zeros(6 * pairs, np.uint16)
+    padded[: col.size] = col
+    ev, od = np.empty(3 * pairs, np.uint16), np.empty(3 * pairs, np.uint16)
+    _split_pixels(padded, ev, od)
+    w = (n_px + 1) // 2
+    got = np.empty(3 * w, np.uint8)
+    even_horizontal(ev, od, taps, np.empty(3 * w, np.int32), got)
+    np.testing.assert_array_equal(got.reshape(w, 3), full.reshape(n_px, 3)[::2])
 
 
 @pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0)])

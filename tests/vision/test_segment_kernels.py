@@ -193,3 +193,19 @@ def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
         window_background(small, rows, cols, x0, y0, h, w, inter, np.empty((2, w), np.uint64),
                           np.empty((2, w), np.uint16), got)
         np.testing.assert_array_equal(got.reshape(h, w, 3), full[y0:y1, x0:x1])
+
+
+def test_window_dilation_is_opencv_dilate_with_columns_doubled():
+    """The refinement's 3x3 dilation of a window of the framed half-scale mask is
+    ``cv2.dilate`` there (the frame empty), each column twice (at full scale)."""
+    from cell.vision._mosaic import _dilated
+
+    rng = np.random.default_rng(3)
+    near = np.zeros((30, 40), np.uint8)
+    near[1:-1, 1:-1] = rng.random((28, 38)) < 0.1
+    full = cv2.dilate(near, np.ones((3, 3), np.uint8))
+    for x0, y0, w, h in ((0, 0, 38, 28), (5, 7, 20, 11), (37, 27, 1, 1)):
+        out = np.full((h, 2 * w), 7, np.uint8)
+        _dilated(near, x0, y0, w, h, np.empty((h + 2, w), np.uint8), out)
+        expect = np.repeat(full[y0 + 1 : y0 + 1 + h, x0 + 1 : x0 + 1 + w], 2, axis=1)
+        np.testing.assert_array_equal(out, expect)

@@ -97,6 +97,18 @@ def _round_pair(acc, a, b, t, out):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def _round_five(mid, a1, b1, a0, b0, taps, out):  # pragma: no cover (compiled)
+    """``out`` = (t2 mid + t1 (a1 + b1) + t0 (a0 + b0) + 32768) >> 16 for the five
+    ``taps`` (t0, t1, t2, t1, t0): the whole 5-tap pass in one loop (the default
+    aperture)."""
+    t0, t1, t2 = taps[0], taps[1], taps[2]
+    for e in range(out.shape[0]):
+        s = t2 * np.int32(mid[e]) + t1 * (np.int32(a1[e]) + np.int32(b1[e])) + t0 * (
+            np.int32(a0[e]) + np.int32(b0[e]))
+        out[e] = np.int32(s + 32768) >> 16
+
+
+@njit(cache=True)
 def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
     """``out`` (n,) uint8: the horizontal pass of the symmetric filter ``taps`` (k,)
     int32 (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (the vertical pass, RGB, k // 2
@@ -105,6 +117,9 @@ def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
     n, k = out.shape[0], taps.shape[0]
     r = k // 2
     mid = col[3 * r : 3 * r + n]
+    if k == 5:  # (the default aperture: one pass)
+        _round_five(mid, col[3 : 3 + n], col[9 : 9 + n], col[:n], col[12 : 12 + n], taps, out)
+        return
     if r >= 2:
         _weigh(mid, col[3 * (r - 1) : 3 * (r - 1) + n], col[3 * (r + 1) : 3 * (r + 1) + n],
                taps[r], taps[r - 1], acc[:n])
@@ -147,6 +162,9 @@ def even_horizontal(ev, od, taps, acc, out):  # pragma: no cover (compiled)
     n, k = out.shape[0], taps.shape[0]
     r = k // 2
     mid = _tap(ev, od, r, n)
+    if k == 5:  # (the default aperture: one pass)
+        _round_five(mid, od[:n], od[3 : 3 + n], ev[:n], ev[6 : 6 + n], taps, out)
+        return
     if r >= 2:
         _weigh(mid, _tap(ev, od, r - 1, n), _tap(ev, od, r + 1, n), taps[r], taps[r - 1], acc)
         for j in range(1, r - 1):

@@ -3,7 +3,11 @@
 At every other pixel (the half-scale foreground) or over a window, with borders mirrored:
 a k x k box filter, exactly ``cv2.blur`` (rounded to nearest), or, when
 ``VisionSettings.smooth_sigma`` > 0, a separable Gaussian in integers (weights in 1/256:
-it smooths the sensor noise with less blur of the outlines than a box).
+it smooths the sensor noise with less blur of the outlines than a box). For the
+half-scale foreground the Gaussian's horizontal pass runs at the even pixels alone, on
+each row split into its even and its odd RGB pixels, so that every loop runs over
+contiguous arrays (numba vectorises those, not strided ones); its sums, and so its
+results, are the same.
 """
 
 from __future__ import annotations

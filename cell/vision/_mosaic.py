@@ -21,17 +21,13 @@ import numpy as np
 from numba import njit
 
 from cell.vision._mask_kernel import above, and_above, frame, max3, open3
-from cell.vision._segment_kernel import (
-    border,
-    interpolate_x,
-    is_shadow,
-    lerp_rows,
-    max_diff,
-    upper_median,
-)
+from cell.vision._segment_kernel import border, is_shadow, max_diff, upper_median
 from cell.vision._smooth_kernel import box_row, gaussian_window
+from cell.vision._upscale_kernel import window_background
 
 __all__: list[str] = []  # private to cell.vision
+
+_U = np.uint64  # (unsigned indices: no negative-index checks, so strided loops vectorise)
 
 
 class Mosaic:
@@ -104,9 +100,10 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
     tp = taps.astype(np.int32)
     src = np.empty((hmax, wmax * 3), np.uint8)
     bg = np.empty((hmax, wmax * 3), np.uint8)
-    inter = np.empty((small, wmax * 3), np.float32)  # small rows interpolated along x
+    inter = np.empty((small, wmax * 3), np.uint16)  # small rows interpolated along x
+    cols_at, cols_weights = np.empty((2, wmax), np.uint64), np.empty((2, wmax), np.uint16)
     diff = np.empty(wmax * 3, np.uint8)
-    near_win = np.empty((hmax // 2 + 1, wmax // 2 + 1), np.uint8)
+    near_win = np.empty((hmax // 2 + 1, 2 * (wmax // 2 + 1)), np.uint8)
     near_tmp = np.empty((hmax // 2 + 3, wmax // 2 + 1), np.uint8)
     size = (hmax + 2) * (wmax + 2)  # d and the masks with a one-pixel frame, each window
     d_buf, a_buf, b_buf, tmp = (np.empty(size, np.uint8), np.empty(size, np.uint8),
@@ -128,7 +125,8 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
             gaussian_window(win_buf, wide, h, w, pad - r, tp, colf, accf, srcf)
         elif k:
             _box(win, pad - r, h, w, k, sums, acc, src)
-        _background(bg_small, rows, cols, x0, y0, h, w, inter, bg)
+        window_background(bg_small, rows, cols, x0, y0, h, w, inter, cols_at, cols_weights,
+                          bg)
         for y in range(h):
             if gauss:
                 srow = srcf[y * wide : y * wide + 3 * w]
@@ -144,11 +142,10 @@ def refine(img, bg_small, rows, cols, boxes, at, near, level, k, taps, edge, kee
         n = 0
         for y in range(h):
             arow, frow, drow = a[y + 1, 1 : w + 1], fg[y0 + y, x0 : x0 + w], d[y + 1, 1 : w + 1]
+            nrow = near_win[y // 2, :w]
             for x in range(w):
                 frow[x] |= 255 * arow[x]
-            nrow = near_win[y // 2]
-            for x in range(w):
-                arow[x] &= nrow[x >> 1]  # a: the own part
+                arow[x] &= nrow[x]  # a: the own part
             for x in range(w):
                 if arow[x]:
                     hist[drow[x]] += 1
@@ -210,30 +207,20 @@ def _box(win, o, h, w, k, sums, acc, src):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
-def _background(bg_small, rows, cols, x0, y0, h, w, inter, bg):  # pragma: no cover
-    """``bg`` (h, 3 w): the full-scale background of window (x0, y0, h, w)."""
-    lo = rows[0, y0]
-    for i in range(lo, rows[1, y0 + h - 1] + 1):
-        interpolate_x(bg_small[i], cols[0, x0 : x0 + w], cols[1, x0 : x0 + w],
-                      cols[2, x0 : x0 + w], cols[3, x0 : x0 + w], inter[i - lo, : 3 * w])
-    for y in range(h):
-        lerp_rows(inter[rows[0, y0 + y] - lo], inter[rows[1, y0 + y] - lo], rows[2, y0 + y],
-                  rows[3, y0 + y], bg[y, : 3 * w])
-
-
-@njit(cache=True)
 def _dilated(near, x0, y0, w, h, tmp, out):  # pragma: no cover (compiled)
-    """``out`` (h, w): the 3x3 dilation of ``near`` (framed by one empty pixel) on its
-    window from (x0, y0) (unframed coordinates); ``tmp`` scratch."""
+    """``out`` (h, 2 w): the 3x3 dilation of ``near`` (framed by one empty pixel) on its
+    window from (x0, y0) (unframed coordinates), each pixel twice along the rows (at
+    full scale); ``tmp`` scratch."""
     for y in range(h + 2):
         s0, s1, s2, t = near[y0 + y, x0 : x0 + w], near[y0 + y, x0 + 1 : x0 + w + 1], \
             near[y0 + y, x0 + 2 : x0 + w + 2], tmp[y, :w]
         for x in range(w):
             t[x] = max(max(s0[x], s1[x]), s2[x])
     for y in range(h):
-        t0, t1, t2, o = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], out[y, :w]
+        t0, t1, t2, o = tmp[y, :w], tmp[y + 1, :w], tmp[y + 2, :w], out[y, : 2 * w]
         for x in range(w):
-            o[x] = max(max(t0[x], t1[x]), t2[x])
+            u = _U(x)
+            o[u + u] = o[u + u + _U(1)] = max(max(t0[u], t1[u]), t2[u])
 
 
 @njit(cache=True)

@@ -3,7 +3,11 @@
 At every other pixel (the half-scale foreground) or over a window, with borders mirrored:
 a k x k box filter, exactly ``cv2.blur`` (rounded to nearest), or, when
 ``VisionSettings.smooth_sigma`` > 0, a separable Gaussian in integers (weights in 1/256:
-it smooths the sensor noise with less blur of the outlines than a box).
+it smooths the sensor noise with less blur of the outlines than a box). For the
+half-scale foreground the Gaussian's horizontal pass runs at the even pixels alone, on
+each row split into its even and its odd RGB pixels, so that every loop runs over
+contiguous arrays (numba vectorises those, not strided ones); its sums, and so its
+results, are the same.
 """
 
 from __future__ import annotations
@@ -13,9 +17,11 @@ import functools
 import numpy as np
 from numba import njit
 
-from cell.vision._segment_kernel import border, max_diff_half
+from cell.vision._segment_kernel import border, max_diff, max_diff_half
 
 __all__: list[str] = []  # private to cell.vision
+
+_U = np.uint64  # (unsigned indices: no negative-index checks, so strided loops vectorise)
 
 
 @functools.lru_cache(maxsize=8)
@@ -95,6 +101,18 @@ def _round_pair(acc, a, b, t, out):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def _round_five(mid, a1, b1, a0, b0, taps, out):  # pragma: no cover (compiled)
+    """``out`` = (t2 mid + t1 (a1 + b1) + t0 (a0 + b0) + 32768) >> 16 for the five
+    ``taps`` (t0, t1, t2, t1, t0): the whole 5-tap pass in one loop (the default
+    aperture)."""
+    t0, t1, t2 = taps[0], taps[1], taps[2]
+    for e in range(out.shape[0]):
+        s = t2 * np.int32(mid[e]) + t1 * (np.int32(a1[e]) + np.int32(b1[e])) + t0 * (
+            np.int32(a0[e]) + np.int32(b0[e]))
+        out[e] = np.int32(s + 32768) >> 16
+
+
+@njit(cache=True)
 def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
     """``out`` (n,) uint8: the horizontal pass of the symmetric filter ``taps`` (k,)
     int32 (in 1/256) over ``col`` (n + 3 (k - 1),) uint16 (the vertical pass, RGB, k // 2
@@ -103,6 +121,9 @@ def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
     n, k = out.shape[0], taps.shape[0]
     r = k // 2
     mid = col[3 * r : 3 * r + n]
+    if k == 5:  # (the default aperture: one pass)
+        _round_five(mid, col[3 : 3 + n], col[9 : 9 + n], col[:n], col[12 : 12 + n], taps, out)
+        return
     if r >= 2:
         _weigh(mid, col[3 * (r - 1) : 3 * (r - 1) + n], col[3 * (r + 1) : 3 * (r + 1) + n],
                taps[r], taps[r - 1], acc[:n])
@@ -118,31 +139,78 @@ def horizontal(col, taps, acc, out):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def _split_pixels(col, ev, od):  # pragma: no cover (compiled)
+    """``ev``, ``od`` (3 n,): the even and the odd RGB pixels of ``col`` (6 n,)."""
+    for i in range(ev.shape[0] // 3):
+        u = _U(i)
+        for c in range(3):
+            e = _U(6) * u + _U(c)
+            ev[_U(3) * u + _U(c)] = col[e]
+            od[_U(3) * u + _U(c)] = col[e + _U(3)]
+
+
+@njit(cache=True)
+def _tap(ev, od, j, n):  # pragma: no cover (compiled)
+    """The n values under tap ``j`` of the even output pixels, from pixel 2 x + j (the
+    even pixels ``ev`` or the odd ``od`` of the padded row)."""
+    part = ev if j % 2 == 0 else od
+    return part[3 * (j // 2) : 3 * (j // 2) + n]
+
+
+@njit(cache=True)
+def even_horizontal(ev, od, taps, acc, out):  # pragma: no cover (compiled)
+    """``out`` (3 w,) uint8: :func:`horizontal` at the even pixels only, from the padded
+    row's even and odd pixels ``ev``, ``od`` (:func:`_split_pixels`; output pixel x sums
+    padded pixels 2 x .. 2 x + k - 1), on contiguous arrays; ``acc`` (3 w,) int32
+    scratch."""
+    n, k = out.shape[0], taps.shape[0]
+    r = k // 2
+    mid = _tap(ev, od, r, n)
+    if k == 5:  # (the default aperture: one pass)
+        _round_five(mid, od[:n], od[3 : 3 + n], ev[:n], ev[6 : 6 + n], taps, out)
+        return
+    if r >= 2:
+        _weigh(mid, _tap(ev, od, r - 1, n), _tap(ev, od, r + 1, n), taps[r], taps[r - 1], acc)
+        for j in range(1, r - 1):
+            _add_pair(_tap(ev, od, j, n), _tap(ev, od, k - 1 - j, n), taps[j], acc)
+    else:
+        _weigh(mid, mid, mid, taps[r], np.int32(0), acc)
+    if r:  # the outermost pair, and rounding
+        _round_pair(acc, _tap(ev, od, 0, n), _tap(ev, od, k - 1, n), taps[0], out)
+    else:
+        _round_pair(acc, mid, mid, np.int32(0), out)
+
+
+@njit(cache=True)
 def box_difference(img, bgh, k, taps, dmax):  # pragma: no cover (compiled)
     """``dmax`` (h, w): the largest channel difference between ``bgh`` (h, 3 w) and
     ``img`` (H, 3 W) uint8 (RGB rows) smoothed k x k (borders mirrored) at every other
     pixel: by ``cv2.blur`` (rounded to nearest) when ``taps`` is empty, else by the
-    separable filter ``taps`` (in 1/256, symmetric: :func:`vertical`, :func:`horizontal`),
-    rounded to nearest."""
+    separable filter ``taps`` (in 1/256, symmetric: :func:`vertical`, then
+    :func:`even_horizontal` at the even pixels alone), rounded to nearest."""
     hh, n = img.shape
     ww = n // 3
     h, w = dmax.shape
     r = k // 2
-    col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
     box = np.empty(3 * ww, np.uint8)
     diff = np.empty(3 * w, np.uint8)
     if taps.shape[0]:
         tp = taps.astype(np.int32)
-        acc = np.empty(3 * ww, np.int32)
+        pairs = (ww + 2 * r + 1) // 2  # the padded row's pixels, in pairs
+        col = np.empty(6 * pairs, np.uint16)
+        ev, od = np.empty(3 * pairs, np.uint16), np.empty(3 * pairs, np.uint16)
+        acc = np.empty(3 * w, np.int32)
         rows = np.empty(k, np.int64)
         for y in range(h):
             for i in range(k):
                 rows[i] = border(2 * y - r + i, hh)
             vertical(img, rows, 0, tp, col[3 * r : 3 * (r + ww)])
             _mirror_columns(col, r, ww)
-            horizontal(col, tp, acc, box)
-            max_diff_half(box, bgh[y], diff, dmax[y])
+            _split_pixels(col, ev, od)
+            even_horizontal(ev, od, tp, acc, box[: 3 * w])
+            max_diff(box[: 3 * w], bgh[y], diff, dmax[y])
         return
+    col = np.empty(3 * (ww + 2 * r), np.uint16)  # column sums, mirrored past the edges
     acc16 = np.empty(3 * ww, np.uint16)
     for y in range(h):
         inner = col[3 * r : 3 * (r + ww)]

@@ -71,21 +71,47 @@ def test_gaussian_taps_are_opencvs_kernel_in_256ths():
 
 
 @pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0), (9, 1.5)])
-def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma):
+@pytest.mark.parametrize(("hh", "ww"), [(48, 64), (37, 63)])
+def test_gaussian_smoothed_difference_is_the_integer_separable_filter(k, sigma, hh, ww):
     """Vertical then horizontal sums of the 1/256 taps (mirrored borders, as
-    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16."""
+    ``cv2.copyMakeBorder`` BORDER_REFLECT_101), rounded: (sum + 32768) >> 16, at every
+    other pixel (odd sizes too: the last column and row are kept)."""
     rng = np.random.default_rng(k)
-    img = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
-    bg = rng.integers(0, 256, (24, 3 * 32), dtype=np.uint8)
+    img = rng.integers(0, 256, (hh, ww, 3), dtype=np.uint8)
+    h, w = round(hh / 2), round(ww / 2)
+    bg = rng.integers(0, 256, (h, 3 * w), dtype=np.uint8)
     taps = smoothing_taps(k, sigma)
-    got = np.empty((24, 32), np.uint8)
-    box_difference(img.reshape(48, 3 * 64), bg, k, taps, got)
+    got = np.empty((h, w), np.uint8)
+    box_difference(img.reshape(hh, 3 * ww), bg, k, taps, got)
     r, t = k // 2, taps.astype(np.int64)
     p = cv2.copyMakeBorder(img, r, r, r, r, cv2.BORDER_REFLECT_101).astype(np.int64)
-    vert = sum(t[j] * p[j : j + 48] for j in range(k))
-    smooth = (sum(t[j] * vert[:, j : j + 64] for j in range(k)) + 32768) >> 16
-    expect = np.abs(smooth[::2, ::2] - bg.reshape(24, 32, 3)).max(axis=2)
+    vert = sum(t[j] * p[j : j + hh] for j in range(k))
+    smooth = (sum(t[j] * vert[:, j : j + ww] for j in range(k)) + 32768) >> 16
+    expect = np.abs(smooth[::2, ::2][:h, :w] - bg.reshape(h, w, 3)).max(axis=2)
     np.testing.assert_array_equal(got, expect)
+
+
+@pytest.mark.parametrize("k", [1, 3, 5, 7, 9])
+@pytest.mark.parametrize("n_px", [40, 41])
+def test_even_horizontal_is_the_horizontal_pass_at_even_pixels(k, n_px):
+    """The horizontal pass at the even pixels alone, from the row split into even and
+    odd pixels, is the full pass (:func:`horizontal`) kept at every other pixel."""
+    from cell.vision._smooth_kernel import _split_pixels, even_horizontal, horizontal
+
+    rng = np.random.default_rng(n_px + k)
+    taps = smoothing_taps(k, 1.5).astype(np.int32)
+    col = rng.integers(0, 65281, 3 * (n_px + k - 1), dtype=np.uint16)  # (at most 255 x 256)
+    full = np.empty(3 * n_px, np.uint8)
+    horizontal(col, taps, np.empty(3 * n_px, np.int32), full)
+    pairs = (n_px + k) // 2
+    padded = np.zeros(6 * pairs, np.uint16)
+    padded[: col.size] = col
+    ev, od = np.empty(3 * pairs, np.uint16), np.empty(3 * pairs, np.uint16)
+    _split_pixels(padded, ev, od)
+    w = (n_px + 1) // 2
+    got = np.empty(3 * w, np.uint8)
+    even_horizontal(ev, od, taps, np.empty(3 * w, np.int32), got)
+    np.testing.assert_array_equal(got.reshape(w, 3), full.reshape(n_px, 3)[::2])
 
 
 @pytest.mark.parametrize(("k", "sigma"), [(1, 1.0), (3, 0.8), (5, 1.0), (7, 2.0)])
@@ -148,10 +174,10 @@ def test_threshold_and_opening_are_opencvs():
 
 @pytest.mark.parametrize("shape", [(60, 80), (9, 13)])
 def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
-    """The refinement's background of a window (integer tables, float32 rows) is what
+    """The refinement's background of a window (integer tables, 16-bit rows) is what
     ``cv2.resize`` (bilinear) of the whole 1/8-scale estimate gives there."""
-    from cell.vision._mosaic import _background
     from cell.vision._segment_kernel import upscale_axis
+    from cell.vision._upscale_kernel import window_background
 
     hs, ws = shape
     rng = np.random.default_rng(hs)
@@ -162,7 +188,24 @@ def test_window_background_is_opencv_bilinear_upscaling_by_8(shape):
     for x0, y0, x1, y1 in ((0, 0, 8 * ws, 8 * hs), (3, 5, 40, 33), (8 * ws - 9, 8 * hs - 7,
                                                                       8 * ws, 8 * hs)):
         h, w = y1 - y0, x1 - x0
-        inter = np.empty((hs, 3 * w), np.float32)
+        inter = np.empty((hs, 3 * w), np.uint16)
         got = np.empty((h, 3 * w), np.uint8)
-        _background(small, rows, cols, x0, y0, h, w, inter, got)
+        window_background(small, rows, cols, x0, y0, h, w, inter, np.empty((2, w), np.uint64),
+                          np.empty((2, w), np.uint16), got)
         np.testing.assert_array_equal(got.reshape(h, w, 3), full[y0:y1, x0:x1])
+
+
+def test_window_dilation_is_opencv_dilate_with_columns_doubled():
+    """The refinement's 3x3 dilation of a window of the framed half-scale mask is
+    ``cv2.dilate`` there (the frame empty), each column twice (at full scale)."""
+    from cell.vision._mosaic import _dilated
+
+    rng = np.random.default_rng(3)
+    near = np.zeros((30, 40), np.uint8)
+    near[1:-1, 1:-1] = rng.random((28, 38)) < 0.1
+    full = cv2.dilate(near, np.ones((3, 3), np.uint8))
+    for x0, y0, w, h in ((0, 0, 38, 28), (5, 7, 20, 11), (37, 27, 1, 1)):
+        out = np.full((h, 2 * w), 7, np.uint8)
+        _dilated(near, x0, y0, w, h, np.empty((h + 2, w), np.uint8), out)
+        expect = np.repeat(full[y0 + 1 : y0 + 1 + h, x0 + 1 : x0 + 1 + w], 2, axis=1)
+        np.testing.assert_array_equal(out, expect)

@@ -2,9 +2,9 @@
 OpenCV call it replaces, so the detector's answers do not change:
 
 * the belt's 15x15 median: :mod:`cell.vision._median_kernel`;
-* ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background by 8, edges
-  repeated, window by window (:mod:`cell.vision._mosaic`): OpenCV's 11-bit fixed-point
-  weights (:func:`upscale_axis`), rows combined as its SIMD path does;
+* the tables of ``cv2.resize`` (``INTER_LINEAR``, uint8) of the 1/8-scale background by
+  8, edges repeated: OpenCV's 11-bit fixed-point weights (:func:`upscale_axis`; applied
+  window by window in :mod:`cell.vision._upscale_kernel`);
 * ``cv2.absdiff`` and the largest channel, at every other pixel (smoothed first in a noisy
   frame: :mod:`cell.vision._smooth_kernel`); ``cv2.threshold`` (uint8: above the floor of
   the threshold) and the 2x2 ``cv2.morphologyEx`` opening (anchor at the kernel's centre
@@ -48,7 +48,7 @@ def upscale_axis(src: int, dst: int, clamp: bool) -> np.ndarray:
     table[1] = np.clip(s + 1, 0, src - 1)
     table[2] = np.rint((np.float32(1) - f) * np.float32(_ONE))
     table[3] = np.rint(f * np.float32(_ONE))
-    assert not (table[2:] % 128).any()  # (what lerp_rows relies on)
+    assert not (table[2:] % 128).any()  # (what the window background relies on)
     return table
 
 
@@ -60,33 +60,6 @@ def border(p, n):  # pragma: no cover (compiled)
     while p < 0 or p >= n:
         p = -p if p < 0 else 2 * n - 2 - p
     return p
-
-
-@njit(cache=True)
-def lerp_rows(u0, u1, b0, b1, out):  # pragma: no cover (compiled)
-    """``out`` (n,) uint8: two rows of horizontally interpolated values ``u0``, ``u1``
-    (n,) float32 (from :func:`interpolate_x`) combined with row weights ``b0``, ``b1``
-    as ``cv2.resize``'s vector path rounds them: the high halves of the 16-bit products
-    of q = 8 u (its horizontal values x 2048, shifted right by 4) and b, then
-    (sum + 2) >> 2, saturated. The weights are multiples of 128 (:func:`upscale_axis`),
-    so (q b) >> 16 = floor(u (b / 8192)) with u b / 8192 < 2^10 a multiple of 1/64:
-    exact in float32."""
-    f0, f1 = np.float32(b0 / 8192), np.float32(b1 / 8192)
-    for e in range(out.shape[0]):
-        v = (np.floor(u0[e] * f0) + np.floor(u1[e] * f1) + np.float32(2)) * np.float32(0.25)
-        out[e] = min(v, np.float32(255))
-
-
-@njit(cache=True)
-def interpolate_x(small, j0s, j1s, a0s, a1s, out):  # pragma: no cover (compiled)
-    """``out`` (3 n,) float32: small row ``small`` (ws, 3) uint8 interpolated at n
-    columns (source columns ``j0s``, ``j1s``, weights ``a0s``, ``a1s`` (n,), multiples
-    of 128, see :func:`upscale_axis`), x 2048 and shifted right by 7 (exact; at most
-    16 x 255), for :func:`lerp_rows`."""
-    for x in range(j0s.shape[0]):
-        j0, j1, a0, a1 = j0s[x], j1s[x], a0s[x], a1s[x]
-        for c in range(3):
-            out[3 * x + c] = (np.int64(small[j0, c]) * a0 + np.int64(small[j1, c]) * a1) >> 7
 
 
 @njit(cache=True)

@@ -7,12 +7,11 @@ and matches detections to ground truth through the segmentation image. Per prese
 prints material and kind accuracy, position error p50/p95 (mm), yaw error p95 (deg,
 modulo the kind's symmetry), false and missed detections, touching pairs split, and the
 median detection latency per frame on one thread with its ratio to the render time of
-the same frame. The latency is measured as a camera pipeline would see it: the frame is
-handed to the detector as soon as it is rendered, so the software renderer has just
-evicted the detector's code and data from the CPU caches. ``warm`` is the median of the
-same frames detected again back to back, with no render between them (the detector's
-own cost, as when a folder of images is processed). Ground truth is read here only, to
-score.
+the same frame. The latency is measured right after the frame (and the segmentation
+image that scores it) is rendered, so the software renderer has just evicted the
+detector's code and data from the CPU caches. ``warm`` is the median of the same frames
+detected again back to back, with no render between them (the detector's own cost, as
+when a folder of images is processed). Ground truth is read here only, to score.
 """
 
 from __future__ import annotations
@@ -225,10 +224,10 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
             frames = []
             for preset in presets:
                 world.set_lighting(preset)
-                seg = world.render(depth=False, seg=True).seg  # (for scoring; rendered first,
-                t0 = time.perf_counter()  # so the frame goes to the detector as from a camera)
+                t0 = time.perf_counter()
                 frame = world.render(depth=False, seg=False)
                 t_render = time.perf_counter() - t0
+                seg = world.render(depth=False, seg=True).seg  # (for scoring)
                 if i == 0 and preset == presets[0]:  # load the compiled kernels: not timed
                     detector.detect(frame.rgb, frame.camera)
                 t0 = time.perf_counter()

@@ -179,10 +179,11 @@ def bolt_point(p, cx, cy, rect_angle):  # pragma: no cover (compiled)
 @njit(cache=True)
 def detection_poses(pts, starts, rows, yaw, xy):  # pragma: no cover (compiled)
     """Yaw and position of each of D detections in one call: outline d is
-    ``pts[starts[d]:starts[d + 1]]`` (float64, C-contiguous), ``rows`` (D, 7) float64 its
-    centroid x, y, rectangle angle, kind code (:func:`kind_yaw`; < 0: no yaw), symmetry
-    order n (0: continuous, yaw 0), cut and whether its position is the bolt's reference
-    point (1) or the centroid (0). Fills ``yaw`` (D,) and ``xy`` (D, 2)."""
+    ``pts[starts[d]:starts[d + 1]]`` (float64, C-contiguous), ``rows`` (D, 7 or more)
+    float64 its centroid x, y, rectangle angle, kind code (:func:`kind_yaw`; < 0: no yaw),
+    symmetry order n (0: continuous, yaw 0), cut and whether its position is the bolt's
+    reference point (1) or the centroid (0); further columns are not read. Fills ``yaw``
+    (D,) and ``xy`` (D, 2)."""
     for d in range(rows.shape[0]):
         p = pts[starts[d] : starts[d + 1]]
         cx, cy, angle = rows[d, 0], rows[d, 1], rows[d, 2]

@@ -201,25 +201,22 @@ def _make_detections(found: list[tuple[Blob, str, float, Fit]],
     compiled call (:func:`~cell.vision._pose.detection_poses`)."""
     if not found:
         return []
-    rows = np.empty((len(found), 7))
-    outlines, sizes = [], []
-    for d, (blob, kind, _, res) in enumerate(found):
+    rows, outlines, sizes = [], [], [0]
+    for blob, kind, _, res in found:
+        _, _, cx, cy, length, width, angle = res.row[:7].tolist()
         known = kind in KINDS
-        n = KINDS[kind].symmetry if known else 0
-        rows[d, :3] = res.row[2], res.row[3], res.row[6]
-        rows[d, 3:] = (YAW_CODES.get(kind, RECTANGLE) if known else -1, n, res.cut,
-                       kind == "bolt" and not blob.partial)
+        rows.append((cx, cy, angle, YAW_CODES.get(kind, RECTANGLE) if known else -1,
+                     KINDS[kind].symmetry if known else 0, res.cut,
+                     kind == "bolt" and not blob.partial, length, width))
         outlines.append(res.outline)
-        sizes.append(len(res.outline))
-    starts = np.zeros(len(found) + 1, np.int64)
-    np.cumsum(sizes, out=starts[1:])
+        sizes.append(sizes[-1] + len(outlines[-1]))
+    table = np.array(rows)
     yaw, xy = np.empty(len(found)), np.empty((len(found), 2))
-    detection_poses(np.ascontiguousarray(np.concatenate(outlines), dtype=np.float64), starts,
-                    rows, yaw, xy)
+    detection_poses(np.concatenate(outlines), np.array(sizes), table, yaw, xy)
     out = []
-    for i, ((blob, kind, conf, res), (material, m_conf), y, (px, py)) in enumerate(
-            zip(found, materials, yaw.tolist(), xy.tolist(), strict=True), start=1):
-        length, width = res.row[4:6].tolist()
+    for i, ((blob, kind, conf, res), (material, m_conf), y, (px, py), row) in enumerate(
+            zip(found, materials, yaw.tolist(), xy.tolist(), rows, strict=True), start=1):
+        length, width = row[7], row[8]
         out.append(Detection(
             id=i,
             material=material,

@@ -66,9 +66,23 @@ def _classify(row, max_fit):  # pragma: no cover (compiled)
 
 @njit(cache=True)
 def _map(rays, away, idx, s, e, lo, hi, ox, oy, drop, buf):  # pragma: no cover (compiled)
+    """Points ``idx[s:e]`` of ``rays`` on the plane ``drop`` below the camera's xy
+    (``ox``, ``oy``), each raised by its edge's height: ``hi[q]`` on a top edge (``away``),
+    else ``lo[q]`` (m)."""
     for q in range(s, e):
         g = idx[q]
         h = hi[q - s] if away[g] else lo[q - s]
+        buf[q - s, 0] = ox + (drop + h) * rays[g, 0]
+        buf[q - s, 1] = oy + (drop + h) * rays[g, 1]
+
+
+@njit(cache=True)
+def _map_at(rays, away, idx, s, e, lo, hi, ox, oy, drop, buf):  # pragma: no cover (compiled)
+    """:func:`_map` with one height ``lo`` for the edges facing the nadir and one ``hi``
+    for the top edges (scalars; the same operations, so the same points to the bit)."""
+    for q in range(s, e):
+        g = idx[q]
+        h = hi if away[g] else lo
         buf[q - s, 0] = ox + (drop + h) * rays[g, 0]
         buf[q - s, 1] = oy + (drop + h) * rays[g, 1]
 
@@ -137,14 +151,12 @@ def fit_one(rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi,
     n_kinds = nominal.shape[0]
     rough = np.empty(n_kinds)
     n_pts = k1 - k0
-    lo = np.full(n_pts, mid)
-    hi = np.full(n_pts, mid)
-    mid_xy = np.empty((n_pts, 2))
-    _map(rays, away, idx, k0, k1, lo, hi, ox, oy, drop, mid_xy)
-    mid_row = np.empty(10)
-    describe_one(mid_xy, local, mid_row)
+    # the mid-height footprint straight into the outputs (a refined one may replace it;
+    # numba's slice copies cost far more than these element loops)
+    _map_at(rays, away, idx, k0, k1, mid, mid, ox, oy, drop, xy)
+    describe_one(xy, local, row)
     for k in range(n_kinds):
-        rough[k] = _score(mid_row, k, nominal, sigmas, round_, round_facets, faceted, facet_w)
+        rough[k] = _score(row, k, nominal, sigmas, round_, round_facets, faceted, facet_w)
     a = 0
     for k in range(1, n_kinds):
         if rough[k] < rough[a]:
@@ -153,8 +165,6 @@ def fit_one(rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi,
     for k in range(n_kinds):
         if k != a and rough[k] < rough[b]:
             b = k
-    xy[:] = mid_xy
-    row[:] = mid_row
     if rough[a] > hopeless:
         return -1, 0.0, np.inf
     tried = (a, b) if rough[b] <= rough[a] + gap else (a, -1)
@@ -165,11 +175,12 @@ def fit_one(rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi,
         if k < 0:
             continue
         if k == bolt:
-            _bolt_heights(mid_xy, mid_row, bolt_height, lo, hi)
+            lo = np.empty(n_pts)
+            hi = np.empty(n_pts)
+            _bolt_heights(xy, row, bolt_height, lo, hi)
+            _map(rays, away, idx, k0, k1, lo, hi, ox, oy, drop, ref_xy[r])
         else:
-            lo[:] = edge_lo[k]
-            hi[:] = edge_hi[k]
-        _map(rays, away, idx, k0, k1, lo, hi, ox, oy, drop, ref_xy[r])
+            _map_at(rays, away, idx, k0, k1, edge_lo[k], edge_hi[k], ox, oy, drop, ref_xy[r])
         describe_one(ref_xy[r], local, ref_row[r])
         rough[k] = _score(ref_row[r], k, nominal, sigmas, round_, round_facets,
                           faceted, facet_w)
@@ -178,6 +189,8 @@ def fit_one(rays, away, idx, k0, k1, local, ox, oy, drop, mid, edge_lo, edge_hi,
         return -1, c, f
     for r in range(2):
         if tried[r] == best:
-            xy[:] = ref_xy[r]
-            row[:] = ref_row[r]
+            for q in range(n_pts):
+                xy[q, 0], xy[q, 1] = ref_xy[r, q, 0], ref_xy[r, q, 1]
+            for j in range(10):
+                row[j] = ref_row[r, j]
     return best, c, f

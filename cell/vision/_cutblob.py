@@ -58,7 +58,13 @@ def first_cuts(contour, normals, rays, away, hole_starts, hole_pts, count, may_s
                         max_fit, hopeless, gap, min_conf)
     m = first.shape[0]
     index = np.empty(3 * m + 1, np.int64)
-    index[:m], index[m : 2 * m], index[2 * m :] = first, second, starts
+    for c in range(m):  # (element by element: numba's slice copies cost far more)
+        index[c], index[m + c] = first[c], second[c]
+    for c in range(m + 1):
+        index[2 * m + c] = starts[c]
     points = np.empty((3, cut.shape[0], 2))
-    points[0], points[1], points[2] = cut, cut_normals, cut_rays
+    for q in range(cut.shape[0]):
+        points[0, q, 0], points[0, q, 1] = cut[q, 0], cut[q, 1]
+        points[1, q, 0], points[1, q, 1] = cut_normals[q, 0], cut_normals[q, 1]
+        points[2, q, 0], points[2, q, 1] = cut_rays[q, 0], cut_rays[q, 1]
     return status, index, points, cut_away, res

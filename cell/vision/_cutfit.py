@@ -143,7 +143,8 @@ def _fit_piece(arrs, ox, oy, drop, mid, edge_lo, edge_hi, bolt, bolt_height, nom
     r, aw, splits = arrs[2], arrs[3], arrs[4]
     local = np.empty(splits.shape[0] + 1, np.int64)
     local[0] = 0
-    local[1:] = splits
+    for j in range(splits.shape[0]):
+        local[j + 1] = splits[j]
     n_pts = splits[-1]
     xy = np.empty((n_pts, 2))
     row = np.empty(10)
@@ -193,11 +194,13 @@ def _store(p, arrs, holes, kind, conf, fit, xy, row, area, hole_pts, hole_off, m
     offsets (kc, kr); the new offsets."""
     pc, pn, pr, paw, psplits, box = arrs
     nc, nrays, nh = pc.shape[0], pr.shape[0], holes.shape[0]
-    cn_all[0, kc : kc + nc] = pc
-    cn_all[1, kc : kc + nc] = pn
-    rxy_all[0, kr : kr + nrays] = pr
-    rxy_all[1, kr : kr + nrays] = xy
-    aw_all[kr : kr + nrays] = paw
+    for q in range(nc):  # (element by element: numba's slice copies cost far more)
+        cn_all[0, kc + q, 0], cn_all[0, kc + q, 1] = pc[q, 0], pc[q, 1]
+        cn_all[1, kc + q, 0], cn_all[1, kc + q, 1] = pn[q, 0], pn[q, 1]
+    for q in range(nrays):
+        rxy_all[0, kr + q, 0], rxy_all[0, kr + q, 1] = pr[q, 0], pr[q, 1]
+        rxy_all[1, kr + q, 0], rxy_all[1, kr + q, 1] = xy[q, 0], xy[q, 1]
+        aw_all[kr + q] = paw[q]
     meta[p, 0], meta[p, 1], meta[p, 2], meta[p, 3] = kc, kc + nc, kr, kr + nrays
     meta[p, 4], meta[p, 5] = kind, nh
     meta[p, 6:10] = box
@@ -205,7 +208,8 @@ def _store(p, arrs, holes, kind, conf, fit, xy, row, area, hole_pts, hole_off, m
     held = 11 + (meta.shape[1] - 11) // 2  # the holes' first column
     meta[p, held : held + nh] = holes
     scores[p, 0], scores[p, 1] = conf, fit
-    scores[p, 2:12] = row
+    for j in range(10):
+        scores[p, 2 + j] = row[j]
     scores[p, 12], scores[p, 13], scores[p, 14] = _centroid_of(pc, holes, hole_pts, hole_off)
     scores[p, 15] = area
     return kc + nc, kr + nrays

@@ -4,12 +4,17 @@ pass over its traced contours.
 For every window, in order, its outer contours (``cv2.findContours``, ``RETR_CCOMP``) in
 the order traced: fragments are left out; each other one becomes a blob with its holes
 (of at least 6 points), its frame bounding box, whether it is partial, its outline and
-normals (:func:`cell.vision._blob._normals`) and its own pixels: the whole window when the
-window holds one outer contour, else the 8-connected region of the contour's first pixel
-(what ``cv2.connectedComponents(window, connectivity=8)`` labels alike).
+normals (:func:`cell.vision._blob._normals`), its area and pixel centroid (as
+``Geometry.area_mm2`` and :func:`~cell.vision._centroid.blob_centroid` compute them, term
+by term) and its own pixels: the whole window when the window holds one outer contour,
+else the 8-connected region of the contour's first pixel (what
+``cv2.connectedComponents(window, connectivity=8)`` labels alike). The rays of all the
+blobs' points to the table plane are then computed in one call.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -49,7 +54,7 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
     for (k_holes, bx, by, bw, bh, partial, start, end, h0, r0), (area, u, v) in zip(
             meta.tolist(), areas.tolist(), strict=True):
         blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0,
-                    area_px=area, centroid_px=None if u != u else (u, v))
+                    area_px=area, centroid_px=None if math.isnan(u) else (u, v))
         stop = end
         splits = [end - start]
         for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():

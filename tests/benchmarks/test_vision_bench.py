@@ -40,3 +40,15 @@ def test_cli_rejects_a_bad_part_count():
 
     with pytest.raises(SystemExit):
         main(["--scenes", "1", "--parts", "0"])
+
+
+def test_a_subset_of_presets(capsys):
+    import pytest
+
+    report = run(scenes=1, presets=["dim", "front"])
+    assert list(report["presets"]) == ["front", "dim"]  # (the catalogue's order)
+    with pytest.raises(ValueError, match="valid: front, back"):
+        run(scenes=1, presets=["bright"])
+    with pytest.raises(SystemExit):
+        main(["--presets", "dim,bright"])
+    assert "unknown bright" in capsys.readouterr().err

@@ -10,6 +10,10 @@ by term) and its own pixels: the whole window when the window holds one outer co
 else the 8-connected region of the contour's first pixel (what
 ``cv2.connectedComponents(window, connectivity=8)`` labels alike). The rays of all the
 blobs' points to the table plane are then computed in one call.
+
+:func:`joined_outlines` and :func:`joined_blobs` (outlines, areas, centroids, then the
+``Blob`` objects and their rays, of chosen contours) serve the split stage's raster
+pieces too (:mod:`cell.vision._cutraster`).
 """
 
 from __future__ import annotations
@@ -27,8 +31,6 @@ from cell.vision._polygons import polygon_area
 
 __all__: list[str] = []  # private to cell.vision
 
-_META = 10  # columns of a kept blob's row (see _window_blobs)
-
 
 def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
                      shape: tuple[int, int], margin: int, min_area: float,
@@ -44,49 +46,134 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
         return []
     lengths = np.fromiter(map(len, cs), np.int64, len(cs))
     boxes = np.array(mos.boxes, np.int64)
-    meta, areas, holes, outline, normals, rois = _window_blobs(
+    rows, windows, areas, holes, outline, normals, rois = _window_blobs(
         np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
         2.0 * min_area, shape[0], shape[1])
+    blobs = joined_blobs(rows, areas, holes, outline, normals, geo)
+    for blob, (k, r0) in zip(blobs, windows.tolist(), strict=True):
+        x0, y0, x1, y1 = mos.boxes[k]
+        blob.roi = (x0, y0, rois[r0 : r0 + (y1 - y0) * (x1 - x0)].reshape(y1 - y0, x1 - x0))
+    return blobs
+
+
+def joined_blobs(rows: np.ndarray, areas: np.ndarray, holes: np.ndarray, outline: np.ndarray,
+                 normals: np.ndarray, geo: Geometry | None) -> list[Blob]:
+    """The ``Blob`` of each row of ``rows`` (B, 9) int64: frame box x, y, w, h, partial
+    (0/1) and, as :func:`joined_outlines` gives them, its outline's rows [start, end), its
+    first hole's row in ``holes`` and its hole count; with its area and pixel centroid
+    from ``areas`` (B, 3) and, given the camera's ``geo``, its rays to the table plane (as
+    :meth:`~cell.vision._footprint.Geometry.prepare` leaves them; all points in one call)."""
     rays = away = None
     if geo is not None and len(outline):
         rays, away = geo.plane_rays(outline, normals)
     out = []
-    for (k_holes, bx, by, bw, bh, partial, start, end, h0, r0), (area, u, v) in zip(
-            meta.tolist(), areas.tolist(), strict=True):
+    for (bx, by, bw, bh, partial, start, end, h0, n_h), (area, u, v) in zip(
+            rows.tolist(), areas.tolist(), strict=True):
         blob = Blob(outline[start:end], normals[start:end], [], (bx, by, bw, bh), partial != 0,
                     area_px=area, centroid_px=None if math.isnan(u) else (u, v))
         stop = end
         splits = [end - start]
-        for a, b in holes[h0 : h0 + (k_holes >> 32)].tolist():
+        for a, b in holes[h0 : h0 + n_h].tolist():
             blob.holes.append((outline[a:b], normals[a:b]))
             splits.append(splits[-1] + b - a)
             stop = b
         if rays is not None:
             blob.rays, blob.away = rays[start:stop], away[start:stop]
             blob.splits = np.array(splits)
-        k = k_holes & 0xFFFFFFFF
-        x0, y0, x1, y1 = mos.boxes[k]
-        size = (y1 - y0) * (x1 - x0)
-        blob.roi = (x0, y0, rois[r0 : r0 + size].reshape(y1 - y0, x1 - x0))
         out.append(blob)
     return out
 
 
 @njit(cache=True)
+def area_box(pts, s, e):  # pragma: no cover (compiled)
+    """(twice the area, x0, y0, x1, y1) of the pixel contour ``pts[s:e]`` (int32): the
+    shoelace sum's absolute value (``2 cv2.contourArea``, exact on pixels) and the
+    inclusive corners of its bounding box (``cv2.boundingRect`` is x0, y0, x1 - x0 + 1,
+    y1 - y0 + 1)."""
+    area = 0
+    x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
+    x1, y1 = x0, y0
+    for i in range(s, e):
+        q = i + 1 if i + 1 < e else s
+        px, py = np.int64(pts[i, 0]), np.int64(pts[i, 1])
+        area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
+        x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+    return abs(area), x0, y0, x1, y1
+
+
+@njit(cache=True)
+def joined_outlines(pts, starts, hier, picks, shifts, spans):  # pragma: no cover (compiled)
+    """(areas, holes, outline, normals) of the contours ``picks`` (B,) with their holes:
+    contour i is ``pts[starts[i]:starts[i + 1]]`` (int32 pixels, ``hier`` (n, 4) int32 as
+    ``cv2.findContours`` gives it with ``RETR_CCOMP``), moved by ``shifts`` (B, 2), its
+    holes its children of at least 6 points. ``outline``, ``normals`` (M, 2) float64 hold
+    every picked contour and then its holes (:func:`cell.vision._blob._normals`); ``spans``
+    (B, 4) int64 is filled with each one's outline rows [start, end), its first hole's row
+    in ``holes`` (nh, 2: each hole's outline rows) and its hole count; ``areas`` (B, 3)
+    its area (px^2: the outline's less the holes', as ``Geometry.area_mm2`` computes it)
+    and pixel centroid (as :func:`~cell.vision._centroid.blob_centroid`; NaN where that
+    leaves it to ``px_centroid``)."""
+    nb = picks.shape[0]
+    n_mem = n_holes = 0
+    for b in range(nb):
+        j = picks[b]
+        n_mem += starts[j + 1] - starts[j]
+        c = hier[j, 2]
+        while c != -1:
+            if starts[c + 1] - starts[c] >= 6:
+                n_mem += starts[c + 1] - starts[c]
+                n_holes += 1
+            c = hier[c, 0]
+    mem_pts = np.empty((n_mem, 2), np.int32)
+    mem_meta = np.empty((nb + n_holes, 4), np.int64)
+    holes = np.empty((n_holes, 2), np.int64)
+    m = row = hole = 0
+    for b in range(nb):
+        j = picks[b]
+        spans[b, 0], spans[b, 2] = row, hole
+        c = j
+        while c != -1:  # the outline, then its holes
+            s, e = starts[c], starts[c + 1]
+            if c == j or e - s >= 6:
+                mem_pts[row : row + e - s] = pts[s:e]
+                mem_meta[m, 0], mem_meta[m, 1] = e - s, c != j
+                mem_meta[m, 2], mem_meta[m, 3] = shifts[b, 0], shifts[b, 1]
+                if c != j:
+                    holes[hole, 0], holes[hole, 1] = row, row + e - s
+                    hole += 1
+                m += 1
+                row += e - s
+            c = hier[c, 2] if c == j else hier[c, 0]
+        spans[b, 1], spans[b, 3] = spans[b, 0] + starts[j + 1] - starts[j], hole - spans[b, 2]
+    outline = np.empty((n_mem, 2))
+    normals = np.empty((n_mem, 2))
+    _normals(mem_pts, mem_meta, outline, normals)
+    areas = np.empty((nb, 3))  # area; pixel centroid u, v (NaN: left to px_centroid)
+    for b in range(nb):
+        s, e, first, n_h = spans[b, 0], spans[b, 1], spans[b, 2], spans[b, 3]
+        a = polygon_area(outline[s:e])  # (as Geometry.area_mm2 computes it)
+        mm, cx, cy = _moments(outline, s, e)  # (as blob_centroid does)
+        for i in range(first, first + n_h):
+            a -= polygon_area(outline[holes[i, 0] : holes[i, 1]])
+            m00, m10, m01 = _moments(outline, holes[i, 0], holes[i, 1])
+            mm, cx, cy = mm - m00, cx - m10, cy - m01
+        areas[b, 0] = a
+        if abs(mm) < 1e-9:
+            areas[b, 1] = areas[b, 2] = np.nan
+        else:
+            areas[b, 1], areas[b, 2] = cx / mm, cy / mm
+    return areas, holes, outline, normals
+
+
+@njit(cache=True)
 def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
-    """(meta, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
-    ``meta`` (B, 10) int64 per kept blob: window index plus its hole count << 32, frame
-    box x, y, w, h, partial (0/1), its outline's rows [start, end), its first hole's row
-    in ``holes`` and its roi's offset in ``rois``; ``areas`` (B, 3) their areas (px^2:
-    the outline's less the holes', as ``Geometry.area_mm2`` computes them) and pixel
-    centroids (as :func:`~cell.vision._centroid.blob_centroid`, NaN where that leaves it
-    to ``px_centroid``); ``holes``
-    (nh, 2) the holes' outline rows; ``outline``, ``normals`` (M, 2) float64 all kept
-    contours' outlines and normals; ``rois`` the kept blobs' own pixels, each its
-    window's shape, flattened one after the other. ``pts`` (P, 2) int32 all contours
-    one after another (``lengths`` points each), ``hier`` (n, 4) int32, ``at`` (nw, 2)
-    int64 the windows' mosaic corners (x increasing), ``boxes`` (nw, 4) int64 their
-    frame boxes (x0, y0, x1, y1)."""
+    """(rows, windows, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
+    ``rows`` (B, 9) int64 per kept blob as :func:`joined_blobs` takes them; ``windows`` (B,
+    2) its window and its roi's offset in ``rois``, the kept blobs' own pixels, each its
+    window's shape, flattened one after the other; the rest as :func:`joined_outlines`
+    gives them. ``pts`` (P, 2) int32 all contours one after another (``lengths`` points
+    each), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the windows' mosaic corners (x
+    increasing), ``boxes`` (nw, 4) int64 their frame boxes (x0, y0, x1, y1)."""
     n, nw = lengths.shape[0], at.shape[0]
     starts = np.zeros(n + 1, np.int64)
     for j in range(n):
@@ -102,7 +189,7 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
             n_outer[k] += 1
     # the kept outer contours, window by window, each in the order traced
     kept = np.empty(n, np.int64)
-    area_box = np.empty((n, 4), np.int64)
+    rows = np.empty((n, 9), np.int64)
     nk = 0
     for k in range(nw):
         if n_outer[k] == 0:
@@ -110,62 +197,31 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
         for j in range(n):
             if win[j] != k or lengths[j] < 8:
                 continue
-            s, e = starts[j], starts[j + 1]
-            area = 0
-            x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
-            x1, y1 = x0, y0
-            for i in range(s, e):
-                q = i + 1 if i + 1 < e else s
-                px, py = np.int64(pts[i, 0]), np.int64(pts[i, 1])
-                area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
-                x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
-            if abs(area) < min_area2:
+            area, x0, y0, x1, y1 = area_box(pts, starts[j], starts[j + 1])
+            if area < min_area2:
                 continue  # a fragment (at least 3 px wide after the opening) far below a part
             kept[nk] = j
-            area_box[nk, 0], area_box[nk, 1], area_box[nk, 2], area_box[nk, 3] = x0, y0, x1, y1
+            sx, sy = boxes[k, 0] - at[k, 0], boxes[k, 1] - at[k, 1]  # mosaic to frame
+            bx, by, bw, bh = x0 + sx, y0 + sy, x1 - x0 + 1, y1 - y0 + 1
+            rows[nk, 0], rows[nk, 1], rows[nk, 2], rows[nk, 3] = bx, by, bw, bh
+            rows[nk, 4] = bx <= margin or by <= margin or bx + bw >= w - margin or by + bh >= h - margin
             nk += 1
-    meta = np.empty((nk, _META), np.int64)
-    n_mem = n_holes = roi_size = 0
+    kept, rows = kept[:nk], rows[:nk]
+    shifts = np.empty((nk, 2), np.int64)
+    windows = np.empty((nk, 2), np.int64)
+    roi_size = 0
     for b in range(nk):
-        j = kept[b]
-        n_mem += lengths[j]
-        c = hier[j, 2]
-        while c != -1:
-            if lengths[c] >= 6:
-                n_mem += lengths[c]
-                n_holes += 1
-            c = hier[c, 0]
-        k = win[j]
+        k = win[kept[b]]
+        shifts[b, 0], shifts[b, 1] = boxes[k, 0] - at[k, 0], boxes[k, 1] - at[k, 1]
+        windows[b, 0], windows[b, 1] = k, roi_size
         roi_size += (boxes[k, 3] - boxes[k, 1]) * (boxes[k, 2] - boxes[k, 0])
-    mem_pts = np.empty((n_mem, 2), np.int32)
-    mem_meta = np.empty((nk + n_holes, 4), np.int64)
-    holes = np.empty((n_holes, 2), np.int64)
+    areas, holes, outline, normals = joined_outlines(pts, starts, hier, kept, shifts, rows[:, 5:])
     rois = np.zeros(roi_size, np.uint8)
     stack = np.empty(0, np.int64)
-    m = row = hole = r0 = 0
     for b in range(nk):
-        j = kept[b]
-        k = win[j]
+        j, k, r0 = kept[b], windows[b, 0], windows[b, 1]
         x0, y0, x1, y1 = boxes[k, 0], boxes[k, 1], boxes[k, 2], boxes[k, 3]
         mx, my = at[k, 0], at[k, 1]
-        sx, sy = x0 - mx, y0 - my  # mosaic to frame
-        bx, by = area_box[b, 0] + sx, area_box[b, 1] + sy
-        bw, bh = area_box[b, 2] - area_box[b, 0] + 1, area_box[b, 3] - area_box[b, 1] + 1
-        partial = bx <= margin or by <= margin or bx + bw >= w - margin or by + bh >= h - margin
-        first_hole, start = hole, row
-        c = j
-        while c != -1:  # the outline, then its holes
-            if c == j or lengths[c] >= 6:
-                s, e = starts[c], starts[c + 1]
-                mem_pts[row : row + e - s] = pts[s:e]
-                mem_meta[m, 0], mem_meta[m, 1] = e - s, c != j
-                mem_meta[m, 2], mem_meta[m, 3] = sx, sy
-                if c != j:
-                    holes[hole, 0], holes[hole, 1] = row, row + e - s
-                    hole += 1
-                m += 1
-                row += e - s
-            c = hier[c, 2] if c == j else hier[c, 0]
         wh, ww = y1 - y0, x1 - x0
         own = rois[r0 : r0 + wh * ww].reshape(wh, ww)
         window = sub[my : my + wh, mx : mx + ww]
@@ -173,29 +229,7 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
             own[:] = window
         else:  # this part's pixels only, not a neighbour's
             stack = _fill8(window, pts[starts[j], 1] - my, pts[starts[j], 0] - mx, own, stack)
-        meta[b, 0] = k | ((hole - first_hole) << 32)
-        meta[b, 1], meta[b, 2], meta[b, 3], meta[b, 4] = bx, by, bw, bh
-        meta[b, 5], meta[b, 6], meta[b, 7] = partial, start, start + lengths[j]
-        meta[b, 8], meta[b, 9] = first_hole, r0
-        r0 += wh * ww
-    outline = np.empty((n_mem, 2))
-    normals = np.empty((n_mem, 2))
-    _normals(mem_pts, mem_meta, outline, normals)
-    areas = np.empty((nk, 3))  # area; pixel centroid u, v (NaN: left to px_centroid)
-    for b in range(nk):
-        s, e, first, n_h = meta[b, 6], meta[b, 7], meta[b, 8], meta[b, 0] >> 32
-        a = polygon_area(outline[s:e])  # (as Geometry.area_mm2 computes it)
-        m, cx, cy = _moments(outline, s, e)  # (as blob_centroid does)
-        for i in range(first, first + n_h):
-            a -= polygon_area(outline[holes[i, 0] : holes[i, 1]])
-            m00, m10, m01 = _moments(outline, holes[i, 0], holes[i, 1])
-            m, cx, cy = m - m00, cx - m10, cy - m01
-        areas[b, 0] = a
-        if abs(m) < 1e-9:
-            areas[b, 1] = areas[b, 2] = np.nan
-        else:
-            areas[b, 1], areas[b, 2] = cx / m, cy / m
-    return meta, areas, holes, outline, normals, rois
+    return rows, windows, areas, holes, outline, normals, rois
 
 
 @njit(cache=True)

@@ -19,7 +19,9 @@ import cv2
 import numpy as np
 from numba import njit
 
-from cell.vision._blob import Blob, make_blobs
+from cell.vision._blob import Blob
+from cell.vision._blobwindows import area_box, joined_blobs, joined_outlines
+from cell.vision._footprint import Geometry
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -136,13 +138,15 @@ def owned_pieces(roi, seeds):  # pragma: no cover (compiled)
     return masks, counts
 
 
-def piece_blobs(masks: np.ndarray, counts: np.ndarray,
-                offset: tuple[int, int]) -> list[Blob] | None:
+def piece_blobs(masks: np.ndarray, counts: np.ndarray, offset: tuple[int, int],
+                geo: Geometry | None = None) -> list[Blob] | None:
     """The blobs of the pieces a cut at the cores gives (``masks`` and ``counts`` from
     :func:`owned_pieces`: every pixel of the blob to its nearest
     seed), each the one outer contour of at least 8 points and 30 px^2 of its mask, with
     holes, as :func:`cell.vision._blob.blobs_of_mask` finds them (all outlined in one
-    pass), or None when a piece is a speck or not one region."""
+    pass, their outlines, areas and centroids in one compiled call, and given the
+    camera's ``geo`` their rays in one more), or None when a piece is a speck or not one
+    region."""
     if counts.min() < 30:
         return None
     n, h, w = masks.shape
@@ -153,23 +157,50 @@ def piece_blobs(masks: np.ndarray, counts: np.ndarray,
                                     cv2.CHAIN_APPROX_NONE)
     if hr is None:
         return None
-    hier = hr[0].tolist()
-    outer = [-1] * n  # each mask's one outer contour
-    for i, c in enumerate(contours):
-        if hier[i][3] != -1 or len(c) < 8 or cv2.contourArea(c) < 30:
-            continue
-        band = int(c[0, 0, 1]) // h
-        if outer[band] >= 0:  # a mask with two
-            return None
-        outer[band] = i
-    if min(outer) < 0:
+    lengths = np.fromiter(map(len, contours), np.int64, len(contours))
+    found, rows, areas, holes, outline, normals = _pieces(
+        np.concatenate(contours).reshape(-1, 2), lengths, hr[0], n, h, offset[0], offset[1])
+    if not found:
         return None
-    offsets, boxes = [], []
-    for band, i in enumerate(outer):
-        bx, by, bw, bh = cv2.boundingRect(contours[i])
-        offsets.append((offset[0], offset[1] - band * h))
-        boxes.append((bx + offset[0], by - band * h + offset[1], bw, bh))
-    subs = make_blobs(contours, hier, outer, offsets, [False] * n, boxes)
+    subs = joined_blobs(rows, areas, holes, outline, normals, geo)
     for sub, mask in zip(subs, masks, strict=True):
         sub.roi = (offset[0], offset[1], mask)
     return subs
+
+
+@njit(cache=True)
+def _pieces(pts, lengths, hier, n, h, ox, oy):  # pragma: no cover (compiled)
+    """(found, rows, areas, holes, outline, normals) of :func:`piece_blobs`: each of the
+    ``n`` masks (bands of ``h`` rows, stacked) must hold exactly one outer contour of at
+    least 8 points and 30 px^2 (``cv2.contourArea``: twice it is the shoelace sum, exact
+    on pixels), else ``found`` is False; ``rows`` (n, 9) as
+    :func:`~cell.vision._blobwindows.joined_blobs` takes them (the frame box of each, the
+    band moved to (``ox``, ``oy``)), the rest as
+    :func:`~cell.vision._blobwindows.joined_outlines` gives them."""
+    m = lengths.shape[0]
+    starts = np.zeros(m + 1, np.int64)
+    for i in range(m):
+        starts[i + 1] = starts[i] + lengths[i]
+    outer = np.full(n, -1, np.int64)
+    rows = np.zeros((n, 9), np.int64)
+    shifts = np.empty((n, 2), np.int64)
+    for i in range(m):
+        if hier[i, 3] != -1 or lengths[i] < 8:
+            continue
+        area, x0, y0, x1, y1 = area_box(pts, starts[i], starts[i + 1])
+        if area < 60:
+            continue
+        band = np.int64(pts[starts[i], 1]) // h
+        if outer[band] >= 0:  # a mask with two
+            return (False, rows[:0], np.empty((0, 3)), np.empty((0, 2), np.int64),
+                    np.empty((0, 2)), np.empty((0, 2)))
+        outer[band] = i
+        shifts[band, 0], shifts[band, 1] = ox, oy - band * h
+        rows[band, 0], rows[band, 1] = x0 + ox, y0 - band * h + oy
+        rows[band, 2], rows[band, 3] = x1 - x0 + 1, y1 - y0 + 1
+    if outer.min() < 0:
+        return (False, rows[:0], np.empty((0, 3)), np.empty((0, 2), np.int64),
+                np.empty((0, 2)), np.empty((0, 2)))
+    areas, holes, outline, normals = joined_outlines(pts, starts, hier, outer, shifts,
+                                                     rows[:, 5:])
+    return True, rows, areas, holes, outline, normals

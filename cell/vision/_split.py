@@ -179,7 +179,7 @@ def _candidates(blob: Blob, view: FrameView, may_split: bool, cores, budget: lis
         masks, counts = owned_pieces(roi, seeds)
         key = masks.tobytes()  # a deeper level's cores often own the same pieces
         if key not in done:
-            pieces = piece_blobs(masks, counts, (ox, oy))
+            pieces = piece_blobs(masks, counts, (ox, oy), view.geo)
             done[key] = None if pieces is None else _evaluate(pieces, view, may_split)
         yield done[key]
 

@@ -60,6 +60,20 @@ def geo_free_area(blob) -> float:
     return a
 
 
+def assert_same_blob(a, b) -> None:
+    """Blob ``a`` (from a joined pass) equals ``b`` (built one contour at a time): box,
+    outline, normals, holes, and the area and centroid computed from ``b``'s outline."""
+    assert a.mask_box == b.mask_box and a.partial == b.partial
+    np.testing.assert_array_equal(a.contour, b.contour)
+    np.testing.assert_array_equal(a.normals, b.normals)
+    assert len(a.holes) == len(b.holes)
+    for (ha, na), (hb, nb) in zip(a.holes, b.holes, strict=True):
+        np.testing.assert_array_equal(ha, hb)
+        np.testing.assert_array_equal(na, nb)
+    assert a.area_px == geo_free_area(b)
+    assert a.centroid_px == blob_centroid(b)  # (b's computed from its outline)
+
+
 def _mosaic(seed: int):
     """A mosaic of 3 to 6 windows of a 480x640 frame, each with a few touching or apart
     blobs (some with holes, some specks), at random places."""
@@ -90,15 +104,7 @@ def test_blobs_of_windows_are_the_opencv_reference():
             ref = _reference(mos, sub, cs, hier, (480, 640), margin, min_area)
             assert len(got) == len(ref)
             for a, b in zip(got, ref, strict=True):
-                assert a.mask_box == b.mask_box and a.partial == b.partial
-                np.testing.assert_array_equal(a.contour, b.contour)
-                np.testing.assert_array_equal(a.normals, b.normals)
-                assert len(a.holes) == len(b.holes)
-                for (ha, na), (hb, nb) in zip(a.holes, b.holes, strict=True):
-                    np.testing.assert_array_equal(ha, hb)
-                    np.testing.assert_array_equal(na, nb)
-                assert a.area_px == geo_free_area(b)
-                assert a.centroid_px == blob_centroid(b)  # (b's computed from its outline)
+                assert_same_blob(a, b)
                 assert a.roi[:2] == b.roi[:2]
                 np.testing.assert_array_equal(a.roi[2], b.roi[2])
                 holes += len(a.holes)

@@ -254,3 +254,29 @@ def outer_boxes(pts, lengths, hier, min_px, max_px):  # pragma: no cover (compil
         out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4], out[n, 5] = i, x0, y0, bw, bh, long
         n += 1
     return out[:n]
+
+
+@njit(cache=True)
+def upper_decile(dmax, mask, x0, y0):  # pragma: no cover (compiled)
+    """The smallest value v of ``dmax`` (h, w) uint8 (half scale) such that at least 9 in
+    10 of the pixels of ``mask`` (uint8, nonzero inside; full scale, its corner at (x0,
+    y0) in the frame) read at most v there (each pixel reads the half-scale pixel holding
+    it); -1 for an empty mask."""
+    hist = np.zeros(256, np.int64)
+    n = 0
+    h, w = dmax.shape
+    for i in range(mask.shape[0]):
+        row = dmax[min((y0 + i) // 2, h - 1)]
+        for j in range(mask.shape[1]):
+            if mask[i, j]:
+                hist[row[min((x0 + j) // 2, w - 1)]] += 1
+                n += 1
+    if n == 0:
+        return -1
+    need = (9 * n + 9) // 10  # ceil(0.9 n)
+    s = 0
+    for v in range(256):
+        s += hist[v]
+        if s >= need:
+            return v
+    return 255

@@ -25,7 +25,9 @@ Pipeline (each step a textbook technique, each in its own module):
    :mod:`cell.vision._kindfit`, :mod:`cell.vision._polygons`, :mod:`cell.vision.kind`);
 4. a blob that fits no kind (or one poorly) is cut into touching parts: straight cuts
    between convexity defects made on the outline itself, then distance-transform cores,
-   recursively, within a budget of cuts (:mod:`cell.vision._split`);
+   recursively, within a budget of cuts (:mod:`cell.vision._split`); one that fits no
+   kind and is faint (the brightest tenth of it within ``faint_contrast`` thresholds of the
+   belt: belt texture or noise) is dropped without a search;
 5. material from grain and white-balanced albedo, every part of the frame at once
    (:mod:`cell.vision._part_material`, :mod:`cell.vision.material`); yaw per kind modulo
    its symmetry (a cut between touching parts is not an edge and does not count);
@@ -57,6 +59,7 @@ from cell.vision._part_material import warm_up as _warm_up_material
 from cell.vision._pose import RECTANGLE, detection_poses
 from cell.vision._segment import FrameView, background, find_blobs, foreground
 from cell.vision._segment import warm_up as _warm_up_segment
+from cell.vision._segment_kernel import upper_decile
 from cell.vision._split import split_blob
 from cell.vision._split import warm_up as _warm_up_split
 from cell.vision.kind import YAW_CODES, footprint, footprint_yaw
@@ -164,6 +167,10 @@ class PartDetector:
         if kind != "unknown" and fit < 9.0:
             res.centroid_px = blob_centroid(blob)
             return [(blob, kind, conf, res)]
+        if kind == "unknown" and st.faint_contrast > 0 and blob.roi is not None:
+            x0, y0, own = blob.roi
+            if upper_decile(view.dmax, own, x0, y0) < st.faint_contrast * view.threshold:
+                return []  # belt texture or noise at the threshold: no parts to search for
         area_mm2 = geo.area_mm2(blob)
         if st.split_touching and area_mm2 > 1.5 * st.min_area_mm2:
             pieces = split_blob(blob, view, whole_fit=fit if kind != "unknown" else math.inf)

@@ -77,6 +77,12 @@ class VisionSettings:
     split_touching: bool = setting(
         True, doc="cut blobs that fit no single kind into touching parts"
     )
+    faint_contrast: float = setting(
+        1.85, lo=0.0, hi=20.0,
+        doc="a blob that fits no kind is searched for touching parts only if the brightest "
+        "tenth of it differs from the belt by at least this many times the foreground "
+        "threshold: fainter ones are belt texture or noise (0 = search all)",
+    )
     partial_min_width: float = setting(
         0.008, lo=0.0, hi=1.0,
         doc="a blob at the image border is reported (as partial) only if at least this wide "

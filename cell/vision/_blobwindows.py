@@ -28,6 +28,7 @@ from cell.vision._centroid import _moments
 from cell.vision._footprint import Geometry
 from cell.vision._mosaic import Mosaic
 from cell.vision._polygons import polygon_area
+from cell.vision._segment_kernel import area_box
 
 __all__: list[str] = []  # private to cell.vision
 
@@ -82,23 +83,6 @@ def joined_blobs(rows: np.ndarray, areas: np.ndarray, holes: np.ndarray, outline
             blob.splits = np.array(splits)
         out.append(blob)
     return out
-
-
-@njit(cache=True)
-def area_box(pts, s, e):  # pragma: no cover (compiled)
-    """(twice the area, x0, y0, x1, y1) of the pixel contour ``pts[s:e]`` (int32): the
-    shoelace sum's absolute value (``2 cv2.contourArea``, exact on pixels) and the
-    inclusive corners of its bounding box (``cv2.boundingRect`` is x0, y0, x1 - x0 + 1,
-    y1 - y0 + 1)."""
-    area = 0
-    x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
-    x1, y1 = x0, y0
-    for i in range(s, e):
-        q = i + 1 if i + 1 < e else s
-        px, py = np.int64(pts[i, 0]), np.int64(pts[i, 1])
-        area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
-        x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
-    return abs(area), x0, y0, x1, y1
 
 
 @njit(cache=True)

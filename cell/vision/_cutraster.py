@@ -20,8 +20,9 @@ import numpy as np
 from numba import njit
 
 from cell.vision._blob import Blob
-from cell.vision._blobwindows import area_box, joined_blobs, joined_outlines
+from cell.vision._blobwindows import joined_blobs, joined_outlines
 from cell.vision._footprint import Geometry
+from cell.vision._segment_kernel import area_box
 
 __all__: list[str] = []  # private to cell.vision
 

@@ -15,8 +15,6 @@ morphology ignores an image's border.
 
 from __future__ import annotations
 
-from bisect import bisect_right
-
 import numpy as np
 from numba import njit
 
@@ -46,17 +44,12 @@ class Mosaic:
         tallest = max(y1 - y0 for _, y0, _, y1 in box_list)
         self.shape = (tallest + (tallest & 1) + 2 * ring, x - ring)
         self.boxes, self.at_list, self.at = box_list, at, np.array(at, np.int64)
-        self._xs = [mx for mx, _ in at]
 
     def window(self, a: np.ndarray, k: int) -> np.ndarray:
         """The view of mosaic-shaped array ``a`` on window ``k``."""
         mx, my = self.at_list[k]
         x0, y0, x1, y1 = self.boxes[k]
         return a[my : my + y1 - y0, mx : mx + x1 - x0]
-
-    def which(self, x: int) -> int:
-        """The window at mosaic column ``x`` (one of its columns)."""
-        return bisect_right(self._xs, x) - 1
 
 
 @njit(cache=True)

@@ -217,6 +217,23 @@ def is_shadow(m0, m1, m2, g0, g1, g2, keep):  # pragma: no cover (compiled)
 
 
 @njit(cache=True)
+def area_box(pts, s, e):  # pragma: no cover (compiled)
+    """(twice the area, x0, y0, x1, y1) of the pixel contour ``pts[s:e]`` (int32): the
+    shoelace sum's absolute value (``2 cv2.contourArea``, exact on pixels) and the
+    inclusive corners of its bounding box (``cv2.boundingRect`` is x0, y0, x1 - x0 + 1,
+    y1 - y0 + 1)."""
+    area = 0
+    x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
+    x1, y1 = x0, y0
+    for i in range(s, e):
+        q = i + 1 if i + 1 < e else s
+        px, py = np.int64(pts[i, 0]), np.int64(pts[i, 1])
+        area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
+        x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+    return abs(area), x0, y0, x1, y1
+
+
+@njit(cache=True)
 def outer_boxes(pts, lengths, hier, min_px, max_px):  # pragma: no cover (compiled)
     """(n, 6) int64 rows (index, x, y, w, h, long) of the outer contours (``hier`` (N, 4)
     int32 as ``cv2.findContours`` gives it with ``RETR_CCOMP``; ``pts`` (P, 2) int32 all N
@@ -234,16 +251,9 @@ def outer_boxes(pts, lengths, hier, min_px, max_px):  # pragma: no cover (compil
         start += k
         if k < 12 or hier[i, 3] != -1:
             continue
-        area = 0
-        x0, y0 = np.int64(pts[s, 0]), np.int64(pts[s, 1])
-        x1, y1 = x0, y0
-        for j in range(s, s + k):
-            q = j + 1 if j + 1 < s + k else s
-            px, py = np.int64(pts[j, 0]), np.int64(pts[j, 1])
-            area += px * pts[q, 1] - np.int64(pts[q, 0]) * py
-            x0, x1, y0, y1 = min(x0, px), max(x1, px), min(y0, py), max(y1, py)
+        area, x0, y0, x1, y1 = area_box(pts, s, s + k)
         bw, bh = x1 - x0 + 1, y1 - y0 + 1
-        if bw * bh < 5 or 2 * abs(area) < min_px:
+        if bw * bh < 5 or 2 * area < min_px:
             continue
         if 2 * max(bw, bh) <= max_px:
             long = 0

@@ -62,9 +62,8 @@ _POOR = 13.0
 
 _NO_HOLES = np.empty((0, 2))
 
-# blob, kind, confidence, footprint, fit, table-plane area (mm^2), pixel centroid (None: not
-# yet known)
-Piece = tuple[Blob, str, float, Fit, float, float, tuple[float, float] | None]
+# blob, kind, confidence, footprint, fit, table-plane area (mm^2)
+Piece = tuple[Blob, str, float, Fit, float, float]
 
 
 def split_blob(blob: Blob, view: FrameView, *,
@@ -78,8 +77,8 @@ def split_blob(blob: Blob, view: FrameView, *,
     if view.geo.area_mm2(blob) <= _MIN_PAIR_MM2:
         return []
     pieces = _split(blob, view, 0, [_BUDGET], limit)
-    for p in pieces:  # (the outline cuts' pieces come with theirs; the others', if kept)
-        p[3].centroid_px = p[6] if p[6] is not None else blob_centroid(p[0])
+    for p in pieces:  # (every piece's blob comes with its centroid computed)
+        p[3].centroid_px = blob_centroid(p[0])
     return [p[:4] for p in pieces]
 
 
@@ -259,10 +258,10 @@ def _batch_pieces(blob: Blob, res: tuple, meta: list, scores: list, p: int,
         holes = [blob.holes[h] for h in mq[held : held + nh]] if nh else []
         spl = imeta[q, 10 : 11 + nh]
         piece = Blob(c[c0:c1], nr[c0:c1], holes, (bx, by, bw, bh), False, None, r[r0:r1],
-                     aw[r0:r1], spl)
+                     aw[r0:r1], spl, centroid_px=(sq[13], sq[14]) if sq[12] else None)
         fit = Fit(rows[q, 2:12], xy[r0:r1], tuple(mq[10 : 11 + nh]), cut=cut)
         out.append((piece, KIND_NAMES[kind] if kind >= 0 else "unknown", sq[0], fit, sq[1],
-                    sq[15], (sq[13], sq[14]) if sq[12] else None))
+                    sq[15]))
     return out
 
 
@@ -295,7 +294,7 @@ def _evaluate(subs: list[Blob], view: FrameView, may_split: bool) -> list[Piece]
     """Each piece with its best kind (:func:`_judge`)."""
     geo = view.geo
     fits = fit_kinds(subs, geo, view.settings.min_kind_confidence)
-    pieces = [(sub, kind, conf, res, fit, geo.area_mm2(sub), None)
+    pieces = [(sub, kind, conf, res, fit, geo.area_mm2(sub))
               for sub, (kind, conf, fit, res) in zip(subs, fits, strict=True)]
     return _judge(pieces, may_split)
 

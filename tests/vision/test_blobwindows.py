@@ -6,6 +6,8 @@ centroids as the detector computes them for a blob alone."""
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import cv2
 import numpy as np
 
@@ -21,7 +23,8 @@ def _reference(mos, sub, cs, hier, shape, margin, min_area):
     h, w = shape
     hr = hier.tolist()
     outer = [j for j in range(len(cs)) if hr[j][3] == -1]
-    box_of = [mos.which(int(cs[j][0, 0, 0])) for j in outer]
+    xs = [mx for mx, _ in mos.at_list]  # (the window a contour starts in)
+    box_of = [bisect_right(xs, int(cs[j][0, 0, 0])) - 1 for j in outer]
     n_outer = [box_of.count(k) for k in range(len(mos.boxes))]
     picks, offsets, partial, boxes, rois = [], [], [], [], []
     for o in sorted(range(len(outer)), key=box_of.__getitem__):

@@ -34,41 +34,6 @@ class Blob:
     centroid_px: tuple[float, float] | None = None  # (u, v) of the region, where computed
 
 
-def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
-               partial: list[bool], boxes: list[tuple[int, int, int, int]]) -> list[Blob]:
-    """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
-    (RETR_CCOMP), each with its holes (children of at least 6 points): contour
-    ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and has the frame
-    bounding box ``boxes[k]`` (x, y, w, h). The outlines and normals of all contours are
-    computed at once (:func:`_normals`)."""
-    members, meta = [], []  # each blob's outline, then its holes; (length, hole, shift)
-    for i, (sx, sy) in zip(outer, offsets, strict=True):
-        c = contours[i]
-        members.append(c)
-        meta.append((len(c), 0, sx, sy))
-        j = hier[i][2]
-        while j != -1:
-            c = contours[j]
-            if len(c) >= 6:
-                members.append(c)
-                meta.append((len(c), 1, sx, sy))
-            j = hier[j][0]
-    outline, normals = np.empty((2, sum(m[0] for m in meta), 2))
-    _normals(np.concatenate(members).reshape(-1, 2), np.array(meta, np.int64), outline,
-             normals)
-    blobs: list[Blob] = []
-    start = 0
-    for n, is_hole, _, _ in meta:
-        piece = outline[start : start + n], normals[start : start + n]
-        start += n
-        if is_hole:
-            blobs[-1].holes.append(piece)
-        else:
-            k = len(blobs)
-            blobs.append(Blob(piece[0], piece[1], [], boxes[k], partial[k]))
-    return blobs
-
-
 def outline_normals(pts: np.ndarray, *, hole: bool) -> tuple[np.ndarray, np.ndarray]:
     """A pixel contour (N, 2) shifted half a pixel outward, with the region's outward
     unit normals (the tangent over five points turned by 90 degrees). For a hole contour
@@ -128,24 +93,6 @@ def _normals(pts, meta, out, nrm):  # pragma: no cover (compiled)
             out[start + i, 0] = (pts[start + i, 0] + sx) + 0.5 * nx
             out[start + i, 1] = (pts[start + i, 1] + sy) + 0.5 * ny
         start += k
-
-
-def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
-    """Blobs (outer contours of at least 8 points and 30 px^2, with holes) of a uint8
-    mask crop whose top-left corner is at ``offset`` in the frame."""
-    contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-    if hier is None:
-        return []
-    hier = hier[0].tolist()
-    outer = [i for i, c in enumerate(contours)
-             if hier[i][3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30]
-    if not outer:
-        return []
-    boxes = []
-    for i in outer:
-        bx, by, bw, bh = cv2.boundingRect(contours[i])
-        boxes.append((bx + offset[0], by + offset[1], bw, bh))
-    return make_blobs(contours, hier, outer, [offset] * len(outer), [False] * len(outer), boxes)
 
 
 def px_centroid(blob: Blob) -> tuple[float, float]:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 from numba import njit
 
@@ -55,6 +56,29 @@ def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
         x0, y0, x1, y1 = mos.boxes[k]
         blob.roi = (x0, y0, rois[r0 : r0 + (y1 - y0) * (x1 - x0)].reshape(y1 - y0, x1 - x0))
     return blobs
+
+
+def blobs_of_mask(piece: np.ndarray, offset: tuple[int, int]) -> list[Blob]:
+    """Blobs (outer contours of at least 8 points and 30 px^2, with holes) of a uint8
+    mask crop whose top-left corner is at ``offset`` in the frame."""
+    contours, hier = cv2.findContours(piece, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hier is None:
+        return []
+    hr = hier[0]
+    outer = [i for i, c in enumerate(contours)
+             if hr[i, 3] == -1 and len(c) >= 8 and cv2.contourArea(c) >= 30]
+    if not outer:
+        return []
+    rows = np.zeros((len(outer), 9), np.int64)
+    for k, i in enumerate(outer):
+        bx, by, bw, bh = cv2.boundingRect(contours[i])
+        rows[k, :4] = bx + offset[0], by + offset[1], bw, bh
+    starts = np.zeros(len(contours) + 1, np.int64)
+    np.cumsum(np.fromiter(map(len, contours), np.int64, len(contours)), out=starts[1:])
+    areas, holes, outline, normals = joined_outlines(
+        np.concatenate(contours).reshape(-1, 2), starts, hr, np.array(outer, np.int64),
+        np.tile(np.array(offset, np.int64), (len(outer), 1)), rows[:, 5:])
+    return joined_blobs(rows, areas, holes, outline, normals, None)
 
 
 def joined_blobs(rows: np.ndarray, areas: np.ndarray, holes: np.ndarray, outline: np.ndarray,

@@ -144,7 +144,7 @@ def piece_blobs(masks: np.ndarray, counts: np.ndarray, offset: tuple[int, int],
     """The blobs of the pieces a cut at the cores gives (``masks`` and ``counts`` from
     :func:`owned_pieces`: every pixel of the blob to its nearest
     seed), each the one outer contour of at least 8 points and 30 px^2 of its mask, with
-    holes, as :func:`cell.vision._blob.blobs_of_mask` finds them (all outlined in one
+    holes, as :func:`cell.vision._blobwindows.blobs_of_mask` finds them (all outlined in one
     pass, their outlines, areas and centroids in one compiled call, and given the
     camera's ``geo`` their rays in one more), or None when a piece is a speck or not one
     region."""

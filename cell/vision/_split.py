@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 
 from cell.camera import CameraModel
-from cell.vision._blob import Blob, blobs_of_mask
+from cell.vision._blob import Blob
+from cell.vision._blobwindows import blobs_of_mask
 from cell.vision._centroid import blob_centroid
 from cell.vision._cutblob import first_cuts
 from cell.vision._cutfit import evaluate_cuts

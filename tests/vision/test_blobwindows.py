@@ -1,7 +1,7 @@
 """The compiled blobs of a mosaic of windows against their reference, written with
 OpenCV: ``cv2.contourArea`` and ``cv2.boundingRect`` for the fragments and boxes,
 ``cv2.connectedComponents`` for each blob's own pixels and
-:func:`~cell.vision._blob.make_blobs` for outlines, normals and holes; areas and
+:func:`make_blobs` (gathering them one by one) for outlines, normals and holes; areas and
 centroids as the detector computes them for a blob alone."""
 
 from __future__ import annotations
@@ -11,11 +11,47 @@ from bisect import bisect_right
 import cv2
 import numpy as np
 
-from cell.vision._blob import make_blobs
+from cell.vision._blob import Blob, _normals
 from cell.vision._blobwindows import blobs_of_windows
 from cell.vision._centroid import blob_centroid
 from cell.vision._mosaic import Mosaic
 from cell.vision._polygons import polygon_area
+
+
+def make_blobs(contours, hier, outer: list[int], offsets: list[tuple[int, int]],
+               partial: list[bool], boxes: list[tuple[int, int, int, int]]) -> list[Blob]:
+    """The blobs of outer contours ``outer`` of a ``cv2.findContours`` result
+    (RETR_CCOMP), each with its holes (children of at least 6 points), gathered one by
+    one: contour ``outer[k]`` lies in a crop at ``offsets[k]`` (x0, y0) in the frame and
+    has the frame bounding box ``boxes[k]`` (x, y, w, h); outlines and normals from
+    :func:`cell.vision._blob._normals` (tested against ``outline_normals``)."""
+    members, meta = [], []  # each blob's outline, then its holes; (length, hole, shift)
+    for i, (sx, sy) in zip(outer, offsets, strict=True):
+        c = contours[i]
+        members.append(c)
+        meta.append((len(c), 0, sx, sy))
+        j = hier[i][2]
+        while j != -1:
+            c = contours[j]
+            if len(c) >= 6:
+                members.append(c)
+                meta.append((len(c), 1, sx, sy))
+            j = hier[j][0]
+    outline, normals = np.empty((2, sum(m[0] for m in meta), 2))
+    _normals(np.concatenate(members).reshape(-1, 2), np.array(meta, np.int64), outline,
+             normals)
+    blobs: list[Blob] = []
+    start = 0
+    for n, is_hole, _, _ in meta:
+        piece = outline[start : start + n], normals[start : start + n]
+        start += n
+        if is_hole:
+            blobs[-1].holes.append(piece)
+        else:
+            k = len(blobs)
+            blobs.append(Blob(piece[0], piece[1], [], boxes[k], partial[k]))
+    return blobs
+
 
 
 def _reference(mos, sub, cs, hier, shape, margin, min_area):

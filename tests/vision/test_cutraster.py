@@ -1,6 +1,6 @@
 """The split stage's nearest-seed labelling against OpenCV's distance transform with
 labels, the pieces it gives against OpenCV's owner-per-label masks, and their blobs
-against OpenCV's contours and :func:`~cell.vision._blob.make_blobs`."""
+against OpenCV's contours gathered one by one (``test_blobwindows.make_blobs``)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cell.vision._blob import make_blobs
 from cell.vision._cutraster import nearest_labels, owned_pieces, piece_blobs
-from tests.vision.test_blobwindows import assert_same_blob
+from tests.vision.test_blobwindows import assert_same_blob, make_blobs
 
 
 @settings(max_examples=60, deadline=None)

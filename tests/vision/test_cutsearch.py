@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cell.vision._blob import blobs_of_mask
+from cell.vision._blobwindows import blobs_of_mask
 from cell.vision._cutsearch import cut_candidates, int_outline, point_in_polygon, py_hypot
 from cell.vision._hull import convex_hull, convexity_defects
 from cell.vision._polygons import plane_rays

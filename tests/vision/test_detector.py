@@ -187,7 +187,7 @@ def test_median_and_mad_from_histogram_match_numpy():
 def test_outline_normals_point_out_of_the_region_and_into_holes():
     import cv2
 
-    from cell.vision._blob import blobs_of_mask
+    from cell.vision._blobwindows import blobs_of_mask
 
     mask = np.zeros((60, 60), np.uint8)
     cv2.rectangle(mask, (10, 10), (49, 49), 255, -1)

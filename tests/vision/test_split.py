@@ -14,7 +14,7 @@ import pytest
 import cell.vision._split as split_module
 from cell.camera import CameraModel
 from cell.catalogue import KINDS
-from cell.vision._blob import blobs_of_mask
+from cell.vision._blobwindows import blobs_of_mask
 from cell.vision._centroid import blob_centroid
 from cell.vision._footprint import Geometry
 from cell.vision._segment import FrameView

@@ -18,6 +18,7 @@ def test_quick_run_reports_each_preset():
                     "yaw_p95_deg", "false", "missed", "latency_ms", "latency_over_render"):
             assert key in r
         assert r["latency_ms"] > 0 and r["render_ms"] > 0 and r["repeat_latency_ms"] > 0
+        assert r["latency_p95_ms"] >= r["latency_ms"]
         assert 0.0 <= r["material_accuracy"] <= 1.0
     assert report["presets"]["back"]["material_wrong"] == 0
 

@@ -6,10 +6,9 @@ tried first), then cores of the distance transform at a few depths (erosion-base
 separation; Gonzalez & Woods, *Digital Image Processing*, ch. 9-10), every pixel going
 to its nearest core; last, where neither gave pieces that fit, a cut along the blob's
 colours (two finishes: :mod:`cell.vision._colourcut`). The candidate whose pieces fit
-their kinds best wins. A piece that
-fits no kind is split again (chains of up to four parts) when it is large enough to
-hold two parts; one that fits a kind poorly only when no cut's pieces fit well as they
-are. The outline cuts are generated, built and fitted in compiled passes
+their kinds best wins. A piece that fits no kind is split again (chains of up to four
+parts) when it is large enough to hold two parts; one that fits a kind poorly only when
+no cut's pieces fit well as they are. The outline cuts are generated, built and fitted in compiled passes
 (:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`; a blob's first batch in one
 call, :mod:`cell.vision._cutblob`), the cores' pieces found and outlined in one
 (:mod:`cell.vision._cutraster`); the search itself stays here.
@@ -55,9 +54,9 @@ _CORE_DEPTH = 1
 # found a better cut that changed a detection's kind, material or count (a stricter 1.0
 # cost accuracy), and they are a third of a blob's search.
 _CORE_SKIP = 0.7
-# The colour cut is tried on a blob, not on its pieces: there too it found 11 more parts
-# in 3,400 on four scene sets under raking light (clusters of three), but it cost a third
-# of the split stage's time.
+# The colour cut is tried on a blob, not on its pieces: on four scene sets under raking
+# light (870 parts) it found 11 more parts there too (clusters of three), but it made the
+# split stage half as slow again.
 _COLOUR_DEPTH = 1
 # The most cuts one blob's search (all depths together) evaluates: the search is an anytime
 # one, the best cut found so far wins. A blob of touching parts needs a handful; a blob

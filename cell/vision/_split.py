@@ -8,10 +8,10 @@ to its nearest core; last, where neither gave pieces that fit, a cut along the b
 colours (two finishes: :mod:`cell.vision._colourcut`). The candidate whose pieces fit
 their kinds best wins. A piece that fits no kind is split again (chains of up to four
 parts) when it is large enough to hold two parts; one that fits a kind poorly only when
-no cut's pieces fit well as they are. The outline cuts are generated, built and fitted in compiled passes
-(:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`; a blob's first batch in one
-call, :mod:`cell.vision._cutblob`), the cores' pieces found and outlined in one
-(:mod:`cell.vision._cutraster`); the search itself stays here.
+no cut's pieces fit well as they are. The outline cuts are generated, built and fitted
+in compiled passes (:mod:`cell.vision._cutsearch`, :mod:`cell.vision._cutfit`; a blob's
+first batch in one call, :mod:`cell.vision._cutblob`), the cores' pieces found and
+outlined in one (:mod:`cell.vision._cutraster`); the search itself stays here.
 """
 
 from __future__ import annotations

@@ -25,7 +25,8 @@ Pipeline (each step a textbook technique, each in its own module):
    :mod:`cell.vision._kindfit`, :mod:`cell.vision._polygons`, :mod:`cell.vision.kind`);
 4. a blob that fits no kind (or one poorly) is cut into touching parts: straight cuts
    between convexity defects made on the outline itself, then distance-transform cores,
-   recursively, within a budget of cuts (:mod:`cell.vision._split`); one that fits no
+   recursively, within a budget of cuts, and last a cut along its colours (two finishes:
+   :mod:`cell.vision._colourcut`) (:mod:`cell.vision._split`); one that fits no
    kind and is faint (the brightest tenth of it within ``faint_contrast`` thresholds of the
    belt: belt texture or noise) is dropped without a search;
 5. material from grain and white-balanced albedo, every part of the frame at once

@@ -34,23 +34,22 @@ from cell.vision._segment_kernel import area_box
 __all__: list[str] = []  # private to cell.vision
 
 
-def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
-                     shape: tuple[int, int], margin: int, min_area: float,
+def blobs_of_windows(mos: Mosaic, sub: np.ndarray, pts: np.ndarray, starts: np.ndarray,
+                     hier: np.ndarray, shape: tuple[int, int], margin: int, min_area: float,
                      geo: Geometry | None = None) -> list[Blob]:
-    """Blobs of the outer contours ``cs`` (hierarchy ``hier`` (n, 4) int32, as
-    ``cv2.findContours`` returns it with ``cv2.RETR_CCOMP``, less its first axis) of
-    ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
+    """Blobs of the outer contours of ``sub`` (uint8 0/255) as
+    :func:`~cell.vision._contours.contours` gives them (``cv2.findContours``,
+    ``RETR_CCOMP``: contour i is ``pts[starts[i]:starts[i + 1]]``, its hierarchy ``hier``
+    (n, 4) int32), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
     window by window: those of at least 8 points and ``min_area`` px^2, partial within
     ``margin`` px of the frame's edge, each with its own pixels (uint8 0/255, its
     window's shape) as ``roi``. Given the camera's ``geo``, each blob is also prepared
     (:meth:`~cell.vision._footprint.Geometry.prepare`), all in one pass."""
-    if not len(cs):
+    if not len(hier):
         return []
-    lengths = np.fromiter(map(len, cs), np.int64, len(cs))
     boxes = np.array(mos.boxes, np.int64)
     rows, windows, areas, holes, outline, normals, rois = _window_blobs(
-        np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
-        2.0 * min_area, shape[0], shape[1])
+        pts, starts, hier, mos.at, boxes, sub, margin, 2.0 * min_area, shape[0], shape[1])
     blobs = joined_blobs(rows, areas, holes, outline, normals, geo)
     for blob, (k, r0) in zip(blobs, windows.tolist(), strict=True):
         x0, y0, x1, y1 = mos.boxes[k]
@@ -174,18 +173,16 @@ def joined_outlines(pts, starts, hier, picks, shifts, spans):  # pragma: no cove
 
 
 @njit(cache=True)
-def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
+def _window_blobs(pts, starts, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
     """(rows, windows, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
     ``rows`` (B, 9) int64 per kept blob as :func:`joined_blobs` takes them; ``windows`` (B,
     2) its window and its roi's offset in ``rois``, the kept blobs' own pixels, each its
     window's shape, flattened one after the other; the rest as :func:`joined_outlines`
-    gives them. ``pts`` (P, 2) int32 all contours one after another (``lengths`` points
-    each), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the windows' mosaic corners (x
-    increasing), ``boxes`` (nw, 4) int64 their frame boxes (x0, y0, x1, y1)."""
-    n, nw = lengths.shape[0], at.shape[0]
-    starts = np.zeros(n + 1, np.int64)
-    for j in range(n):
-        starts[j + 1] = starts[j] + lengths[j]
+    gives them. ``pts`` (P, 2) int32 all contours one after another (contour j from
+    ``starts[j]`` to ``starts[j + 1]``), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the
+    windows' mosaic corners (x increasing), ``boxes`` (nw, 4) int64 their frame boxes
+    (x0, y0, x1, y1)."""
+    n, nw = hier.shape[0], at.shape[0]
     win = np.full(n, -1, np.int64)  # each outer contour's window (by its first point)
     n_outer = np.zeros(nw, np.int64)
     for j in range(n):
@@ -203,7 +200,7 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
         if n_outer[k] == 0:
             continue
         for j in range(n):
-            if win[j] != k or lengths[j] < 8:
+            if win[j] != k or starts[j + 1] - starts[j] < 8:
                 continue
             area, x0, y0, x1, y1 = area_box(pts, starts[j], starts[j + 1])
             if area < min_area2:

@@ -22,6 +22,7 @@ import numpy as np
 
 from cell.vision._blob import Blob
 from cell.vision._blobwindows import blobs_of_windows
+from cell.vision._contours import contours
 from cell.vision._footprint import Geometry
 from cell.vision._median_kernel import median15
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
@@ -208,30 +209,31 @@ def find_blobs(view: FrameView) -> list[Blob]:
     """Outer contours of the half-scale foreground, refined at full scale each in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
     edge), are left out. A part touching such a long blob is cut off it by an opening."""
-    contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-    if hier is None:
+    pts, starts, hier = contours(view.mask)
+    if not len(hier):
         return []
-    parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
+    parts = list(_part_contours(view, pts, starts, hier, (0, 0), cut=True))
     return _refine(view, parts) if parts else []
 
 
-def _part_contours(view: FrameView, contours, hier: np.ndarray, offset: tuple[int, int], *,
-                   cut: bool, within: tuple[np.ndarray, int, int] | None = None):
-    """Half-scale outer contours that may be parts (in the mask's coordinates), each with
-    its bounding box (x, y, w, h), chosen by :func:`~cell.vision._segment_kernel.outer_boxes`
-    (``hier`` (N, 4) int32, ``cv2.RETR_CCOMP``). A contour longer than any part is
-    opened (3x3) and its pieces taken instead, once (``cut``).
+def _part_contours(view: FrameView, pts: np.ndarray, starts: np.ndarray, hier: np.ndarray,
+                   offset: tuple[int, int], *, cut: bool,
+                   within: tuple[np.ndarray, int, int] | None = None):
+    """Half-scale outer contours that may be parts (in the mask's coordinates, (k, 1, 2)
+    int32 as ``cv2.findContours`` gives them), each with its bounding box (x, y, w, h),
+    chosen by :func:`~cell.vision._segment_kernel.outer_boxes` from the borders ``pts``,
+    ``starts``, ``hier`` of :func:`~cell.vision._contours.contours` (``RETR_CCOMP``). A
+    contour longer than any part is opened (3x3) and its pieces taken instead, once
+    (``cut``).
 
     The opening is that of the mask in the long contour's box: other blobs there are
     apart from it (not 8-adjacent), so they open apart and trace apart, and the pieces
     are the same, in the same order, as those of the contour's filled region alone;
     the others' pieces are told by a point outside the contour (``within``: the
     contour and the pieces' offset in its coordinates)."""
-    lengths = np.fromiter(map(len, contours), np.int64, len(contours))
-    rows = outer_boxes(np.concatenate(contours).reshape(-1, 2), lengths, hier, view.min_px,
-                       view.max_px).tolist()
+    rows = outer_boxes(pts, np.diff(starts), hier, view.min_px, view.max_px).tolist()
     for i, x, y, bw, bh, long in rows:
-        c = contours[i]
+        c = pts[starts[i] : starts[i + 1]].reshape(-1, 1, 2)
         if not long:
             if within is not None and cv2.pointPolygonTest(
                     within[0], (float(c[0, 0, 0] + within[1]), float(c[0, 0, 1] + within[2])),
@@ -244,9 +246,10 @@ def _part_contours(view: FrameView, contours, hier: np.ndarray, offset: tuple[in
         elif cut:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
             sub = cv2.morphologyEx(view.mask[oy : oy + bh, ox : ox + bw], cv2.MORPH_OPEN, _K3)
-            cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-            if hr is not None:
-                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False, within=(c, x, y))
+            sub_pts, sub_starts, sub_hier = contours(sub)
+            if len(sub_hier):
+                yield from _part_contours(view, sub_pts, sub_starts, sub_hier, (ox, oy),
+                                          cut=False, within=(c, x, y))
 
 
 def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, int]]]
@@ -278,10 +281,8 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
            np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth,
            smoothing_taps(view.smooth, st.smooth_sigma), st.edge_level,
            np.float32(keep), view.fg, sub)  # (a light table casts no shadows)
-    cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-    if hr is None:
-        return []
-    return blobs_of_windows(mos, sub, cs, hr[0], view.fg.shape,
+    pts, starts, hier = contours(sub)
+    return blobs_of_windows(mos, sub, pts, starts, hier, view.fg.shape,
                             view.settings.border_margin, view.min_px / 3, view.geo)
 
 

@@ -85,42 +85,35 @@ def _trace(mask, dx, dy):  # pragma: no cover (compiled)
         prev = 0
         x = 1
         while x < width:
-            # the next pixel that differs from ``prev`` (whole words of 0s or 1s at once)
+            # on to the next start of a border: a 1 after a 0 (outer), a 0 after a 1 or a
+            # label without the right mark (hole); runs of 0s or 1s a word at a time
             p = img[row + x]
-            if p == prev and prev <= 1:  # (a run of 0s or 1s: whole words at once)
-                rep = _ONES if prev else np.uint64(0)
-                while x < width:
-                    if (x & 7) == 1:  # (a word of 1s ends by x = w + 1, of 0s by the mark)
-                        k = (row + x - 1) >> 3
+            while True:
+                if (x & 7) == 1 and prev <= 1:  # (1s end by x = w + 1, 0s by the mark)
+                    k = (row + x - 1) >> 3
+                    rep = _ONES if prev else np.uint64(0)
+                    if words[k] == rep:
+                        k += 1
                         while words[k] == rep:
                             k += 1
                         x = (k << 3) + 1 - row
                         if x >= width:
                             break
-                    p = img[row + x]
-                    if p != prev:
-                        break
-                    x += 1
-            elif p == prev:
-                while x < width:
-                    p = img[row + x]
-                    if p != prev:
-                        break
-                    x += 1
+                        p = img[row + x]
+                if (prev == 0 and p == 1) or (p == 0 and 1 <= prev <= 127):
+                    break
+                if p != prev and p > 1:
+                    last_x = x
+                prev = p
+                x += 1
+                if x >= width:
+                    break
+                p = img[row + x]
             if x >= width:
                 break
-            if prev == 0 and p == 1:
-                is_hole = False
-            elif p == 0 and 1 <= prev <= 127:
-                is_hole = True
-                if prev != 1:
-                    last_x = x - 1
-            else:
-                prev = p
-                if prev > 1:
-                    last_x = x
-                x += 1
-                continue
+            is_hole = p == 0
+            if is_hole and prev != 1:
+                last_x = x - 1
             # a new border: its parent
             parent = 0
             if is_hole and last_x > 0:

@@ -23,6 +23,7 @@ import numpy as np
 from cell.vision._blob import Blob
 from cell.vision._blobwindows import blobs_of_windows
 from cell.vision._contours import contours
+from cell.vision._fillchain import fill_chains
 from cell.vision._footprint import Geometry
 from cell.vision._median_kernel import median15
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
@@ -258,8 +259,10 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     scale, each from its own box (and 8 px around it) as if alone: the difference there
     thresholded at ``edge_level`` times the blob's median contrast (at least the frame's
     threshold), less shadow, near the contour's region (compiled:
-    :func:`~cell.vision._mosaic.refine`). The results lie side by side in a
-    :class:`~cell.vision._mosaic.Mosaic`, traced at once."""
+    :func:`~cell.vision._mosaic.refine`; the region filled as ``cv2.drawContours``
+    fills it, :func:`~cell.vision._fillchain.fill_chains`). The results lie side by side
+    in a :class:`~cell.vision._mosaic.Mosaic`, traced at once (as ``cv2.findContours``
+    traces it, :func:`~cell.vision._contours.contours`)."""
     st = view.settings
     h, w = view.fg.shape
     hh, hw = view.mask.shape
@@ -272,8 +275,11 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
-    cv2.drawContours(near, [c + (mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (c, _), (mx, my), (hx0, hy0)
-                            in zip(parts, mos.at_list, corners, strict=True)], -1, 1, -1)
+    chains = [c for c, _ in parts]
+    fill_chains(near, np.concatenate(chains).reshape(-1, 2),
+                np.cumsum([0] + [len(c) for c in chains]),
+                np.array([(mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (mx, my), (hx0, hy0)
+                          in zip(mos.at_list, corners, strict=True)], np.int64), 1)
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)

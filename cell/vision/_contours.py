@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from cell.vision._mask_kernel import open3
+
 __all__: list[str] = []  # private to cell.vision
 
 _DX = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int64)  # OpenCV's chain code steps
@@ -34,6 +36,27 @@ def contours(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     first child and parent (-1: none), exactly as ``cv2.findContours(mask,
     cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)`` gives them (n = 0 where it gives none)."""
     return _trace(np.ascontiguousarray(mask), _DX, _DY)
+
+
+def opened_contours(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contours` of ``cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3)))``
+    (uint8 ``mask`` (H, W), a view will do), the opening compiled too
+    (:func:`~cell.vision._mask_kernel.open3`)."""
+    return _trace(_opened(mask), _DX, _DY)
+
+
+@njit(cache=True)
+def _opened(mask):  # pragma: no cover (compiled)
+    """The 3x3 opening of ``mask`` (H, W) (nonzero: set), 0/1, as a view (H, W)."""
+    h, w = mask.shape
+    m = np.empty((h + 2) * (w + 2), np.uint8)
+    framed = m.reshape((h + 2, w + 2))
+    for y in range(h):
+        src, out = mask[y], framed[y + 1]
+        for x in range(w):
+            out[x + 1] = src[x] != 0
+    open3(m, np.empty_like(m), np.empty_like(m), h, w)
+    return framed[1 : h + 1, 1 : w + 1]
 
 
 @njit(cache=True)

@@ -22,7 +22,7 @@ import numpy as np
 
 from cell.vision._blob import Blob
 from cell.vision._blobwindows import blobs_of_windows
-from cell.vision._contours import contours
+from cell.vision._contours import contours, opened_contours
 from cell.vision._fillchain import fill_chains
 from cell.vision._footprint import Geometry
 from cell.vision._median_kernel import median15
@@ -42,7 +42,6 @@ from cell.vision.settings import VisionSettings
 __all__: list[str] = []  # private to cell.vision
 
 _BG_SCALE = 8  # the background model's downscale factor
-_K3 = np.ones((3, 3), np.uint8)
 
 
 @dataclass
@@ -246,8 +245,7 @@ def _part_contours(view: FrameView, pts: np.ndarray, starts: np.ndarray, hier: n
                 yield c + offset, (x + offset[0], y + offset[1], bw, bh)
         elif cut:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
-            sub = cv2.morphologyEx(view.mask[oy : oy + bh, ox : ox + bw], cv2.MORPH_OPEN, _K3)
-            sub_pts, sub_starts, sub_hier = contours(sub)
+            sub_pts, sub_starts, sub_hier = opened_contours(view.mask[oy : oy + bh, ox : ox + bw])
             if len(sub_hier):
                 yield from _part_contours(view, sub_pts, sub_starts, sub_hier, (ox, oy),
                                           cut=False, within=(c, x, y))

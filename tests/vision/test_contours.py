@@ -9,7 +9,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from cell.vision._contours import contours
+from cell.vision._contours import contours, opened_contours
 
 
 def _assert_opencvs(mask: np.ndarray) -> int:
@@ -51,3 +51,22 @@ def test_edge_cases():
                  np.full((1, 9), 255, np.uint8), np.full((9, 1), 255, np.uint8),
                  np.eye(6, dtype=np.uint8), np.pad(np.ones((3, 3), np.uint8), 2)):
         _assert_opencvs(mask)
+
+
+def test_opened_masks_are_traced_as_opencv_does():
+    rng = np.random.default_rng(2)
+    k3 = np.ones((3, 3), np.uint8)
+    for _ in range(200):
+        h, w = (int(v) for v in rng.integers(1, 80, 2))
+        field = cv2.GaussianBlur(rng.random((h + 6, w + 6)).astype(np.float32), (0, 0), 1.0)
+        mask = (field > np.quantile(field, rng.uniform(0.2, 0.8))).astype(np.uint8) * 255
+        view = mask[3 : 3 + h, 2 : 2 + w]  # (a view into a larger mask, as the cut takes)
+        cs, hier = cv2.findContours(cv2.morphologyEx(view, cv2.MORPH_OPEN, k3), cv2.RETR_CCOMP,
+                                    cv2.CHAIN_APPROX_NONE)
+        pts, starts, hr = opened_contours(view)
+        if hier is None:
+            assert len(hr) == 0
+            continue
+        np.testing.assert_array_equal(hr, hier[0])
+        np.testing.assert_array_equal(starts, np.cumsum([0] + [len(c) for c in cs]))
+        np.testing.assert_array_equal(pts, np.concatenate(cs).reshape(-1, 2))

@@ -38,21 +38,22 @@ def contours(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return _trace(np.ascontiguousarray(mask), _DX, _DY)
 
 
-def opened_contours(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`contours` of ``cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3)))``
-    (uint8 ``mask`` (H, W), a view will do), the opening compiled too
+def opened_contours(mask: np.ndarray, x: int, y: int, w: int, h: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contours` of ``cv2.morphologyEx(mask[y : y + h, x : x + w],
+    cv2.MORPH_OPEN, np.ones((3, 3)))`` (uint8 ``mask``), the opening compiled too
     (:func:`~cell.vision._mask_kernel.open3`)."""
-    return _trace(_opened(mask), _DX, _DY)
+    return _trace(_opened(np.ascontiguousarray(mask), x, y, w, h), _DX, _DY)
 
 
 @njit(cache=True)
-def _opened(mask):  # pragma: no cover (compiled)
-    """The 3x3 opening of ``mask`` (H, W) (nonzero: set), 0/1, as a view (H, W)."""
-    h, w = mask.shape
+def _opened(mask, x0, y0, w, h):  # pragma: no cover (compiled)
+    """The 3x3 opening of ``mask[y0 : y0 + h, x0 : x0 + w]`` (nonzero: set), 0/1, as a
+    view (h, w)."""
     m = np.empty((h + 2) * (w + 2), np.uint8)
     framed = m.reshape((h + 2, w + 2))
     for y in range(h):
-        src, out = mask[y], framed[y + 1]
+        src, out = mask[y0 + y, x0 : x0 + w], framed[y + 1]
         for x in range(w):
             out[x + 1] = src[x] != 0
     open3(m, np.empty_like(m), np.empty_like(m), h, w)

@@ -245,7 +245,7 @@ def _part_contours(view: FrameView, pts: np.ndarray, starts: np.ndarray, hier: n
                 yield c + offset, (x + offset[0], y + offset[1], bw, bh)
         elif cut:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
-            sub_pts, sub_starts, sub_hier = opened_contours(view.mask[oy : oy + bh, ox : ox + bw])
+            sub_pts, sub_starts, sub_hier = opened_contours(view.mask, ox, oy, bw, bh)
             if len(sub_hier):
                 yield from _part_contours(view, sub_pts, sub_starts, sub_hier, (ox, oy),
                                           cut=False, within=(c, x, y))
@@ -274,7 +274,7 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
     chains = [c for c, _ in parts]
-    fill_chains(near, np.concatenate(chains).reshape(-1, 2),
+    fill_chains(near, np.concatenate(chains, dtype=np.int32).reshape(-1, 2),
                 np.cumsum([0] + [len(c) for c in chains]),
                 np.array([(mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (mx, my), (hx0, hy0)
                           in zip(mos.at_list, corners, strict=True)], np.int64), 1)
@@ -293,7 +293,7 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
 def warm_up() -> None:
     """Load (or compile, on the very first run) every compiled kernel of segmentation,
     on a made-up 64x64 frame with one square part, clean and then noisy (box-filtered),
-    so a detector's first frame is as fast as its others."""
+    and the cut of a long blob, so a detector's first frame is as fast as its others."""
     rng = np.random.default_rng(0)
     img = np.full((64, 64, 3), (60, 80, 110), np.uint8)
     img[20:44, 24:40] = (200, 120, 40)
@@ -305,4 +305,5 @@ def warm_up() -> None:
         view = FrameView(frame, bg_small, dmax, mask, t, smooth, backlit, None, settings,
                          max_px=1000, min_px=10.0)
         find_blobs(view)
+        opened_contours(mask, 1, 1, 30, 30)  # (the cut of a long blob)
         view.noise_sigma()

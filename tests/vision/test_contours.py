@@ -60,10 +60,10 @@ def test_opened_masks_are_traced_as_opencv_does():
         h, w = (int(v) for v in rng.integers(1, 80, 2))
         field = cv2.GaussianBlur(rng.random((h + 6, w + 6)).astype(np.float32), (0, 0), 1.0)
         mask = (field > np.quantile(field, rng.uniform(0.2, 0.8))).astype(np.uint8) * 255
-        view = mask[3 : 3 + h, 2 : 2 + w]  # (a view into a larger mask, as the cut takes)
-        cs, hier = cv2.findContours(cv2.morphologyEx(view, cv2.MORPH_OPEN, k3), cv2.RETR_CCOMP,
+        box = mask[3 : 3 + h, 2 : 2 + w]  # (a box of a larger mask, as the cut takes)
+        cs, hier = cv2.findContours(cv2.morphologyEx(box, cv2.MORPH_OPEN, k3), cv2.RETR_CCOMP,
                                     cv2.CHAIN_APPROX_NONE)
-        pts, starts, hr = opened_contours(view)
+        pts, starts, hr = opened_contours(mask, 2, 3, w, h)
         if hier is None:
             assert len(hr) == 0
             continue

@@ -18,6 +18,8 @@ contours come out as OpenCV lists its tree: depth first, the newest child first.
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 from numba import njit
 
@@ -28,6 +30,12 @@ __all__: list[str] = []  # private to cell.vision
 _DX = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int64)  # OpenCV's chain code steps
 _DY = np.array([0, -1, -1, -1, 0, 1, 1, 1], np.int64)
 _ONES = np.uint64(0x0101010101010101)
+_ZERO = np.uint64(0)
+# the lowest set bit's index by a de Bruijn multiply: bit i lands in slot
+# (2^i * B mod 2^64) >> 58, a different slot for each i
+_DEBRUIJN = 0x03F79D71B4CB0A89
+_BIT_AT = np.argsort([((1 << i) * _DEBRUIJN & (1 << 64) - 1) >> 58 for i in range(64)])
+assert sys.byteorder == "little"  # (a word is 8 pixels, the leftmost in its lowest byte)
 
 
 def contours(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -58,6 +66,12 @@ def _opened(mask, x0, y0, w, h):  # pragma: no cover (compiled)
             out[x + 1] = src[x] != 0
     open3(m, np.empty_like(m), np.empty_like(m), h, w)
     return framed[1 : h + 1, 1 : w + 1]
+
+
+@njit(cache=True)
+def _first_byte(d):  # pragma: no cover (compiled)
+    """The index of the lowest nonzero byte of ``d`` (uint64, not 0)."""
+    return _BIT_AT[((d & (_ZERO - d)) * np.uint64(_DEBRUIJN)) >> np.uint64(58)] >> 3
 
 
 @njit(cache=True)
@@ -113,17 +127,18 @@ def _trace(mask, dx, dy):  # pragma: no cover (compiled)
             # label without the right mark (hole); runs of 0s or 1s a word at a time
             p = img[row + x]
             while True:
-                if (x & 7) == 1 and prev <= 1:  # (1s end by x = w + 1, 0s by the mark)
+                if prev <= 1:  # a run of 0s or 1s: to its end a word at a time (1s end
+                    rep = _ONES if prev else _ZERO  # by x = w + 1, 0s by the mark)
                     k = (row + x - 1) >> 3
-                    rep = _ONES if prev else np.uint64(0)
-                    if words[k] == rep:
+                    skip = np.uint64(8 * ((x - 1) & 7))
+                    d = (words[k] ^ rep) >> skip << skip  # (the bytes before x left out)
+                    while d == 0:
                         k += 1
-                        while words[k] == rep:
-                            k += 1
-                        x = (k << 3) + 1 - row
-                        if x >= width:
-                            break
-                        p = img[row + x]
+                        d = words[k] ^ rep
+                    x = (k << 3) + 1 - row + _first_byte(d)
+                    if x >= width:
+                        break
+                    p = img[row + x]
                 if (prev == 0 and p == 1) or (p == 0 and 1 <= prev <= 127):
                     break
                 if p != prev and p > 1:

@@ -3,15 +3,16 @@ cv2.CHAIN_APPROX_NONE)`` traces them, in one compiled call (numba) that returns 
 arrays (all points one contour after another, with its hierarchy) instead of one numpy
 array per contour, which is most of OpenCV's cost on a mask of many specks.
 
-The algorithm is OpenCV's (imgproc/src/contours_new.cpp, OpenCV 4.10+), after Suzuki and
-Abe, *Topological structural analysis of digitized binary images by border following*,
+The algorithm is OpenCV's (imgproc/src/contours_new.cpp, its implementation since 4.10), after
+Suzuki and Abe, *Topological structural analysis of digitized binary images by border following*,
 CVGIP 1985: the mask, framed by one empty pixel, is scanned row by row; a 0 -> 1 step
 starts an outer border, a labelled-or-1 -> 0 step a hole border, each followed
 counter-clockwise and its pixels labelled (1..127, wrapping; the high bit where the border
 leaves to the right). An outer border is a child of the root (``RETR_CCOMP``); a hole
 border's parent is the border last met on its row (among those of the same label, told
 apart by following them again), or that border's parent when it is a hole too. The
-contours come out as OpenCV lists its tree: depth first, the newest child first.
+contours come out as OpenCV lists its tree: depth first, the newest child first (both in
+:mod:`cell.vision._contourtree`).
 ``tests/vision/test_contours.py`` checks points and hierarchy against
 ``cv2.findContours`` on masks of every kind.
 """
@@ -23,6 +24,7 @@ import sys
 import numpy as np
 from numba import njit
 
+from cell.vision._contourtree import bounding, results
 from cell.vision._mask_kernel import open3
 
 __all__: list[str] = []  # private to cell.vision
@@ -157,7 +159,7 @@ def _trace(mask, dx, dy):  # pragma: no cover (compiled)
             parent = 0
             if is_hole and last_x > 0:
                 lval = img[row + last_x] & 127
-                parent = _bounding(img, node, ctable[lval], last_x, y, stride, delta)
+                parent = bounding(img, node, ctable[lval], last_x, y, stride, delta)
                 if node[parent, 5] == 1:  # a hole's hole: the parent's parent
                     parent = node[parent, 0] if node[parent, 0] != -1 else 0
             last_x = x - 1 if is_hole else x
@@ -185,7 +187,7 @@ def _trace(mask, dx, dy):  # pragma: no cover (compiled)
             # go on after it, from what its tracing left there
             x += 1
             prev = img[row + x - 1]
-    return _results(node, span, pts, n)
+    return results(node, span, pts, n)
 
 
 @njit(cache=True)
@@ -245,99 +247,3 @@ def _follow(img, i0, stride, is_hole, nbd, delta, dx, dy, pts, n_pts):  # pragma
         i3 = i4
         s = (s + 4) & 7
     return pts, n_pts, rx, ry, rx1 - rx + 1, ry1 - ry + 1
-
-
-@njit(cache=True)
-def _bounding(img, node, cur, last_x, y, stride, delta):  # pragma: no cover (compiled)
-    """The border a hole starting on row ``y`` lies in, from those of the label last met
-    (at ``last_x``): ``cur`` the newest of them, the others by ``node``'s ctable links;
-    where several hold the point in their rectangles, the newest that following the
-    previous candidate again does not reach it (OpenCV's findFirstBoundingContour)."""
-    res = -1
-    end = y * stride + last_x
-    while cur != -1:
-        if last_x - node[cur, 7] < node[cur, 9] and y - node[cur, 8] < node[cur, 10]:
-            if res != -1 and _reaches(img, node[res, 6], end, node[res, 5] == 1, delta):
-                break
-            res = cur
-        cur = node[cur, 4]
-    return res
-
-
-@njit(cache=True)
-def _reaches(img, i0, stop, is_hole, delta):  # pragma: no cover (compiled)
-    """Whether following (without labelling) the border from flat index ``i0`` ends at
-    ``stop`` as the last border of its label met on that row (OpenCV's
-    icvTraceContour)."""
-    s_end = 0 if is_hole else 4
-    s = s_end
-    while True:
-        s = (s - 1) & 7
-        i1 = i0 + delta[s]
-        if img[i1] != 0 or s == s_end:
-            break
-    i3 = i0
-    if s == s_end:
-        return i3 == stop
-    while True:
-        i4 = i3
-        while s < 15:
-            s += 1
-            i4 = i3 + delta[s]
-            if img[i4] != 0:
-                break
-        if i3 == stop:
-            if img[i3] & 128 == 0:
-                return True
-            t = s
-            while True:
-                t = (t - 1) & 7
-                if img[i3 + delta[t]] != 0:
-                    break
-                if t == 0:
-                    return True
-        if i4 == i0 and i3 == i1:
-            break
-        i3 = i4
-        s = (s + 4) & 7
-    return False
-
-
-@njit(cache=True)
-def _results(node, span, pts, n):  # pragma: no cover (compiled)
-    """The contours 1..n-1 of the tree ``node`` in OpenCV's output order (depth first
-    from the root, each node's newest child first) with their hierarchy rows."""
-    order = np.empty(n - 1, np.int64)
-    index = np.full(n, -1, np.int64)  # (the root maps to -1)
-    stack = np.empty(n, np.int64)
-    stack[0] = 0
-    top, k = 1, 0
-    total = 0
-    while top:
-        top -= 1
-        i = stack[top]
-        if i != 0:
-            order[k], index[i] = i, k
-            k += 1
-            total += span[i, 1] - span[i, 0]
-        c = node[i, 1]  # push the children oldest first, so the newest comes out first
-        last = -1
-        while c != -1:
-            last = c
-            c = node[c, 3]
-        c = last
-        while c != -1:
-            stack[top] = c
-            top += 1
-            c = node[c, 2]
-    out = np.empty((total, 2), np.int32)
-    starts = np.zeros(n, np.int64)
-    hier = np.empty((n - 1, 4), np.int32)
-    for k in range(n - 1):
-        i = order[k]
-        a, b = span[i, 0], span[i, 1]
-        out[starts[k] : starts[k] + b - a] = pts[a:b]
-        starts[k + 1] = starts[k] + b - a
-        for j, f in enumerate((3, 2, 1, 0)):
-            hier[k, j] = index[node[i, f]] if node[i, f] != -1 else -1
-    return out, starts, hier

@@ -2,15 +2,16 @@
 them, for pixel chains (``cv2.findContours`` with ``CHAIN_APPROX_NONE``: each point
 8-adjacent to the next, the last to the first), in one compiled call (numba).
 
-OpenCV fills the polygons with ``fillPoly`` (imgproc/src/drawing.cpp): each edge drawn as
-an 8-connected line, and a scan-line fill in which each non-horizontal edge covers the
-rows from its upper end to the row above its lower end, its x starting at its upper end;
-on each row the sorted crossings are paired and each pair filled from the first to the
-second. An edge of a chain spans one row, so: every point is set, and on each row the
-upper ends of the edges that leave it downwards or arrive from below, sorted, pair up
-into spans. Contours lying apart in x (the windows of a mosaic) pair up each on its
-own, as they do in OpenCV's one fill of all of them. ``tests/vision/test_fillchain.py``
-checks it against ``cv2.drawContours`` pixel for pixel.
+OpenCV fills the polygons as ``fillPoly`` does (imgproc/src/drawing.cpp, CollectPolyEdges
+and FillEdgeCollection): each edge drawn as an 8-connected line, and a scan-line fill of
+all the polygons' edges at once, in which each non-horizontal edge covers the rows from
+its upper end to the row above its lower end, its x starting at its upper end; on each
+row the sorted crossings are paired and each pair filled from the first to the second.
+An edge of a chain spans one row, so: every point is set, and on each row the upper ends
+of the edges that leave it downwards or arrive from below, sorted, pair up into spans.
+Contours lying apart in x (the windows of a mosaic) pair up each on its own, as they do
+in OpenCV's one fill of all of them. ``tests/vision/test_fillchain.py`` checks it
+against ``cv2.drawContours`` pixel for pixel.
 """
 
 from __future__ import annotations

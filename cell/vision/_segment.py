@@ -220,11 +220,11 @@ def _part_contours(view: FrameView, pts: np.ndarray, starts: np.ndarray, hier: n
                    offset: tuple[int, int], *, cut: bool,
                    within: tuple[np.ndarray, int, int] | None = None):
     """Half-scale outer contours that may be parts (in the mask's coordinates, (k, 1, 2)
-    int32 as ``cv2.findContours`` gives them), each with its bounding box (x, y, w, h),
-    chosen by :func:`~cell.vision._segment_kernel.outer_boxes` from the borders ``pts``,
-    ``starts``, ``hier`` of :func:`~cell.vision._contours.contours` (``RETR_CCOMP``). A
-    contour longer than any part is opened (3x3) and its pieces taken instead, once
-    (``cut``).
+    integer pixels as ``cv2.findContours`` gives them), each with its bounding box (x, y,
+    w, h), chosen by :func:`~cell.vision._segment_kernel.outer_boxes` from the borders
+    ``pts``, ``starts``, ``hier`` of :func:`~cell.vision._contours.contours`
+    (``RETR_CCOMP``). A contour longer than any part is opened (3x3) and its pieces taken
+    instead, once (``cut``).
 
     The opening is that of the mask in the long contour's box: other blobs there are
     apart from it (not 8-adjacent), so they open apart and trace apart, and the pieces

@@ -34,23 +34,22 @@ from cell.vision._segment_kernel import area_box
 __all__: list[str] = []  # private to cell.vision
 
 
-def blobs_of_windows(mos: Mosaic, sub: np.ndarray, cs, hier: np.ndarray,
-                     shape: tuple[int, int], margin: int, min_area: float,
+def blobs_of_windows(mos: Mosaic, sub: np.ndarray, pts: np.ndarray, starts: np.ndarray,
+                     hier: np.ndarray, shape: tuple[int, int], margin: int, min_area: float,
                      geo: Geometry | None = None) -> list[Blob]:
-    """Blobs of the outer contours ``cs`` (hierarchy ``hier`` (n, 4) int32, as
-    ``cv2.findContours`` returns it with ``cv2.RETR_CCOMP``, less its first axis) of
-    ``sub`` (uint8 0/255), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
+    """Blobs of the outer contours of ``sub`` (uint8 0/255) as
+    :func:`~cell.vision._contours.contours` gives them (``cv2.findContours``,
+    ``RETR_CCOMP``: contour i is ``pts[starts[i]:starts[i + 1]]``, its hierarchy ``hier``
+    (n, 4) int32), a mosaic ``mos`` of windows of a frame of ``shape`` (H, W),
     window by window: those of at least 8 points and ``min_area`` px^2, partial within
     ``margin`` px of the frame's edge, each with its own pixels (uint8 0/255, its
     window's shape) as ``roi``. Given the camera's ``geo``, each blob is also prepared
     (:meth:`~cell.vision._footprint.Geometry.prepare`), all in one pass."""
-    if not len(cs):
+    if not len(hier):
         return []
-    lengths = np.fromiter(map(len, cs), np.int64, len(cs))
     boxes = np.array(mos.boxes, np.int64)
     rows, windows, areas, holes, outline, normals, rois = _window_blobs(
-        np.concatenate(cs).reshape(-1, 2), lengths, hier, mos.at, boxes, sub, margin,
-        2.0 * min_area, shape[0], shape[1])
+        pts, starts, hier, mos.at, boxes, sub, margin, 2.0 * min_area, shape[0], shape[1])
     blobs = joined_blobs(rows, areas, holes, outline, normals, geo)
     for blob, (k, r0) in zip(blobs, windows.tolist(), strict=True):
         x0, y0, x1, y1 = mos.boxes[k]
@@ -174,18 +173,16 @@ def joined_outlines(pts, starts, hier, picks, shifts, spans):  # pragma: no cove
 
 
 @njit(cache=True)
-def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
+def _window_blobs(pts, starts, hier, at, boxes, sub, margin, min_area2, h, w):  # pragma: no cover
     """(rows, windows, areas, holes, outline, normals, rois) of :func:`blobs_of_windows`:
     ``rows`` (B, 9) int64 per kept blob as :func:`joined_blobs` takes them; ``windows`` (B,
     2) its window and its roi's offset in ``rois``, the kept blobs' own pixels, each its
     window's shape, flattened one after the other; the rest as :func:`joined_outlines`
-    gives them. ``pts`` (P, 2) int32 all contours one after another (``lengths`` points
-    each), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the windows' mosaic corners (x
-    increasing), ``boxes`` (nw, 4) int64 their frame boxes (x0, y0, x1, y1)."""
-    n, nw = lengths.shape[0], at.shape[0]
-    starts = np.zeros(n + 1, np.int64)
-    for j in range(n):
-        starts[j + 1] = starts[j] + lengths[j]
+    gives them. ``pts`` (P, 2) int32 all contours one after another (contour j from
+    ``starts[j]`` to ``starts[j + 1]``), ``hier`` (n, 4) int32, ``at`` (nw, 2) int64 the
+    windows' mosaic corners (x increasing), ``boxes`` (nw, 4) int64 their frame boxes
+    (x0, y0, x1, y1)."""
+    n, nw = hier.shape[0], at.shape[0]
     win = np.full(n, -1, np.int64)  # each outer contour's window (by its first point)
     n_outer = np.zeros(nw, np.int64)
     for j in range(n):
@@ -203,7 +200,7 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
         if n_outer[k] == 0:
             continue
         for j in range(n):
-            if win[j] != k or lengths[j] < 8:
+            if win[j] != k or starts[j + 1] - starts[j] < 8:
                 continue
             area, x0, y0, x1, y1 = area_box(pts, starts[j], starts[j + 1])
             if area < min_area2:
@@ -224,8 +221,9 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
         windows[b, 0], windows[b, 1] = k, roi_size
         roi_size += (boxes[k, 3] - boxes[k, 1]) * (boxes[k, 2] - boxes[k, 0])
     areas, holes, outline, normals = joined_outlines(pts, starts, hier, kept, shifts, rows[:, 5:])
-    rois = np.zeros(roi_size, np.uint8)
-    stack = np.empty(0, np.int64)
+    rois = np.empty(roi_size, np.uint8)
+    grid = np.empty(0, np.uint8)
+    todo = np.empty(0, np.int64)
     for b in range(nk):
         j, k, r0 = kept[b], windows[b, 0], windows[b, 1]
         x0, y0, x1, y1 = boxes[k, 0], boxes[k, 1], boxes[k, 2], boxes[k, 3]
@@ -234,45 +232,49 @@ def _window_blobs(pts, lengths, hier, at, boxes, sub, margin, min_area2, h, w): 
         own = rois[r0 : r0 + wh * ww].reshape(wh, ww)
         window = sub[my : my + wh, mx : mx + ww]
         if n_outer[k] == 1:
-            own[:] = window
+            for r in range(wh):  # (row by row: numba's 2-d slice copy is slower)
+                src, dst = window[r], own[r]
+                for c in range(ww):
+                    dst[c] = src[c]
         else:  # this part's pixels only, not a neighbour's
-            stack = _fill8(window, pts[starts[j], 1] - my, pts[starts[j], 0] - mx, own, stack)
+            if grid.shape[0] < (wh + 2) * (ww + 2):
+                grid, todo = np.empty((wh + 2) * (ww + 2), np.uint8), np.empty(wh * ww, np.int64)
+            _fill8(window, pts[starts[j], 1] - my, pts[starts[j], 0] - mx, own, grid, todo)
     return rows, windows, areas, holes, outline, normals, rois
 
 
 @njit(cache=True)
-def _fill8(src, y, x, out, stack):  # pragma: no cover (compiled)
-    """``out`` (zero, ``src``'s shape) set to 255 on the 8-connected region of nonzero
-    pixels of ``src`` that holds (y, x); ``stack`` scratch (grown as needed, returned).
-    The region is grown on a copy framed by one empty pixel, so no neighbour needs a
-    bounds test."""
+def _fill8(src, y, x, out, grid, todo):  # pragma: no cover (compiled)
+    """``out`` (``src``'s shape) 255 on the 8-connected region of nonzero pixels of
+    ``src`` that holds (y, x), 0 elsewhere; ``grid`` (at least (h + 2) (w + 2)) and
+    ``todo`` (at least h w) scratch. The region is grown on a copy framed by one empty
+    pixel (0 empty, 1 to fill, 2 filled), so no neighbour needs a bounds test."""
     h, w = src.shape
     wp = w + 2
     size = (h + 2) * wp
-    if stack.shape[0] < 2 * size:
-        stack = np.empty(2 * size, np.int64)
-    todo = stack[size:]  # (the framed copy lives in the first half: 0 empty, 1 to fill)
-    grid = stack[:size]
-    grid[:wp] = 0
-    grid[size - wp :] = 0
+    g = grid[:size]
+    g[:wp] = 0
+    g[size - wp :] = 0
     for r in range(h):
-        row, g = src[r], grid[(r + 1) * wp : (r + 2) * wp]
-        g[0] = g[w + 1] = 0
+        row, cells = src[r], g[(r + 1) * wp : (r + 2) * wp]
+        cells[0] = cells[w + 1] = 0
         for c in range(w):
-            g[c + 1] = row[c] != 0
+            cells[c + 1] = row[c] != 0
     steps = (-wp - 1, -wp, -wp + 1, -1, 1, wp - 1, wp, wp + 1)
     start = (y + 1) * wp + x + 1
-    grid[start] = 0
+    g[start] = 2
     todo[0] = start
     top = 1
     while top:
         top -= 1
         p = todo[top]
-        out[p // wp - 1, p % wp - 1] = 255
         for d in steps:
             q = p + d
-            if grid[q]:
-                grid[q] = 0
+            if g[q] == 1:
+                g[q] = 2
                 todo[top] = q
                 top += 1
-    return stack
+    for r in range(h):
+        cells, row = g[(r + 1) * wp + 1 : (r + 1) * wp + 1 + w], out[r]
+        for c in range(w):
+            row[c] = 255 * (cells[c] >> 1)

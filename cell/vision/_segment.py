@@ -22,6 +22,8 @@ import numpy as np
 
 from cell.vision._blob import Blob
 from cell.vision._blobwindows import blobs_of_windows
+from cell.vision._contours import contours, opened_contours
+from cell.vision._fillchain import fill_chains
 from cell.vision._footprint import Geometry
 from cell.vision._median_kernel import median15
 from cell.vision._mosaic import Mosaic, drop_shadow, refine, window
@@ -40,7 +42,6 @@ from cell.vision.settings import VisionSettings
 __all__: list[str] = []  # private to cell.vision
 
 _BG_SCALE = 8  # the background model's downscale factor
-_K3 = np.ones((3, 3), np.uint8)
 
 
 @dataclass
@@ -208,30 +209,31 @@ def find_blobs(view: FrameView) -> list[Blob]:
     """Outer contours of the half-scale foreground, refined at full scale each in its own
     box (:func:`_refine`); specks, and blobs far longer than any part (a rail, the table
     edge), are left out. A part touching such a long blob is cut off it by an opening."""
-    contours, hier = cv2.findContours(view.mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-    if hier is None:
+    pts, starts, hier = contours(view.mask)
+    if not len(hier):
         return []
-    parts = list(_part_contours(view, contours, hier[0], (0, 0), cut=True))
+    parts = list(_part_contours(view, pts, starts, hier, (0, 0), cut=True))
     return _refine(view, parts) if parts else []
 
 
-def _part_contours(view: FrameView, contours, hier: np.ndarray, offset: tuple[int, int], *,
-                   cut: bool, within: tuple[np.ndarray, int, int] | None = None):
-    """Half-scale outer contours that may be parts (in the mask's coordinates), each with
-    its bounding box (x, y, w, h), chosen by :func:`~cell.vision._segment_kernel.outer_boxes`
-    (``hier`` (N, 4) int32, ``cv2.RETR_CCOMP``). A contour longer than any part is
-    opened (3x3) and its pieces taken instead, once (``cut``).
+def _part_contours(view: FrameView, pts: np.ndarray, starts: np.ndarray, hier: np.ndarray,
+                   offset: tuple[int, int], *, cut: bool,
+                   within: tuple[np.ndarray, int, int] | None = None):
+    """Half-scale outer contours that may be parts (in the mask's coordinates, (k, 1, 2)
+    integer pixels as ``cv2.findContours`` gives them), each with its bounding box (x, y,
+    w, h), chosen by :func:`~cell.vision._segment_kernel.outer_boxes` from the borders
+    ``pts``, ``starts``, ``hier`` of :func:`~cell.vision._contours.contours`
+    (``RETR_CCOMP``). A contour longer than any part is opened (3x3) and its pieces taken
+    instead, once (``cut``).
 
     The opening is that of the mask in the long contour's box: other blobs there are
     apart from it (not 8-adjacent), so they open apart and trace apart, and the pieces
     are the same, in the same order, as those of the contour's filled region alone;
     the others' pieces are told by a point outside the contour (``within``: the
     contour and the pieces' offset in its coordinates)."""
-    lengths = np.fromiter(map(len, contours), np.int64, len(contours))
-    rows = outer_boxes(np.concatenate(contours).reshape(-1, 2), lengths, hier, view.min_px,
-                       view.max_px).tolist()
+    rows = outer_boxes(pts, np.diff(starts), hier, view.min_px, view.max_px).tolist()
     for i, x, y, bw, bh, long in rows:
-        c = contours[i]
+        c = pts[starts[i] : starts[i + 1]].reshape(-1, 1, 2)
         if not long:
             if within is not None and cv2.pointPolygonTest(
                     within[0], (float(c[0, 0, 0] + within[1]), float(c[0, 0, 1] + within[2])),
@@ -243,10 +245,10 @@ def _part_contours(view: FrameView, contours, hier: np.ndarray, offset: tuple[in
                 yield c + offset, (x + offset[0], y + offset[1], bw, bh)
         elif cut:  # a rail or an edge, with parts touching it? cut them
             ox, oy = offset[0] + x, offset[1] + y
-            sub = cv2.morphologyEx(view.mask[oy : oy + bh, ox : ox + bw], cv2.MORPH_OPEN, _K3)
-            cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-            if hr is not None:
-                yield from _part_contours(view, cs, hr[0], (ox, oy), cut=False, within=(c, x, y))
+            sub_pts, sub_starts, sub_hier = opened_contours(view.mask, ox, oy, bw, bh)
+            if len(sub_hier):
+                yield from _part_contours(view, sub_pts, sub_starts, sub_hier, (ox, oy),
+                                          cut=False, within=(c, x, y))
 
 
 def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, int]]]
@@ -255,8 +257,10 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     scale, each from its own box (and 8 px around it) as if alone: the difference there
     thresholded at ``edge_level`` times the blob's median contrast (at least the frame's
     threshold), less shadow, near the contour's region (compiled:
-    :func:`~cell.vision._mosaic.refine`). The results lie side by side in a
-    :class:`~cell.vision._mosaic.Mosaic`, traced at once."""
+    :func:`~cell.vision._mosaic.refine`; the region filled as ``cv2.drawContours``
+    fills it, :func:`~cell.vision._fillchain.fill_chains`). The results lie side by side
+    in a :class:`~cell.vision._mosaic.Mosaic`, traced at once (as ``cv2.findContours``
+    traces it, :func:`~cell.vision._contours.contours`)."""
     st = view.settings
     h, w = view.fg.shape
     hh, hw = view.mask.shape
@@ -269,8 +273,11 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
     mos = Mosaic(boxes, max(view.smooth // 2, 1))  # (the support of the box filter)
     # each blob's foreground: near its half-scale region (dilated), not a neighbour's
     near = np.zeros((mos.shape[0] // 2 + 2, mos.shape[1] // 2 + 2), np.uint8)  # (framed)
-    cv2.drawContours(near, [c + (mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (c, _), (mx, my), (hx0, hy0)
-                            in zip(parts, mos.at_list, corners, strict=True)], -1, 1, -1)
+    chains = [c for c, _ in parts]
+    fill_chains(near, np.concatenate(chains, dtype=np.int32).reshape(-1, 2),
+                np.cumsum([0] + [len(c) for c in chains]),
+                np.array([(mx // 2 + 1 - hx0, my // 2 + 1 - hy0) for (mx, my), (hx0, hy0)
+                          in zip(mos.at_list, corners, strict=True)], np.int64), 1)
     keep = 1.0 if view.backlit or st.shadow_chroma <= 0 else 1.0 - st.shadow_chroma
     hs, ws = view.bg_small.shape[:2]
     sub = np.zeros(mos.shape, np.uint8)
@@ -278,17 +285,15 @@ def _refine(view: FrameView, parts: list[tuple[np.ndarray, tuple[int, int, int, 
            np.array(boxes, np.int64), mos.at, near, view.threshold, view.smooth,
            smoothing_taps(view.smooth, st.smooth_sigma), st.edge_level,
            np.float32(keep), view.fg, sub)  # (a light table casts no shadows)
-    cs, hr = cv2.findContours(sub, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-    if hr is None:
-        return []
-    return blobs_of_windows(mos, sub, cs, hr[0], view.fg.shape,
+    pts, starts, hier = contours(sub)
+    return blobs_of_windows(mos, sub, pts, starts, hier, view.fg.shape,
                             view.settings.border_margin, view.min_px / 3, view.geo)
 
 
 def warm_up() -> None:
     """Load (or compile, on the very first run) every compiled kernel of segmentation,
     on a made-up 64x64 frame with one square part, clean and then noisy (box-filtered),
-    so a detector's first frame is as fast as its others."""
+    and the cut of a long blob, so a detector's first frame is as fast as its others."""
     rng = np.random.default_rng(0)
     img = np.full((64, 64, 3), (60, 80, 110), np.uint8)
     img[20:44, 24:40] = (200, 120, 40)
@@ -300,4 +305,5 @@ def warm_up() -> None:
         view = FrameView(frame, bg_small, dmax, mask, t, smooth, backlit, None, settings,
                          max_px=1000, min_px=10.0)
         find_blobs(view)
+        opened_contours(mask, 1, 1, 30, 30)  # (the cut of a long blob)
         view.noise_sigma()

@@ -14,6 +14,7 @@ import numpy as np
 from cell.vision._blob import Blob, _normals
 from cell.vision._blobwindows import blobs_of_windows
 from cell.vision._centroid import blob_centroid
+from cell.vision._contours import contours
 from cell.vision._mosaic import Mosaic
 from cell.vision._polygons import polygon_area
 
@@ -139,7 +140,7 @@ def test_blobs_of_windows_are_the_opencv_reference():
     for seed in range(40):
         mos, sub, cs, hier = _mosaic(seed)
         for margin, min_area in ((3, 20.0), (40, 5.0)):
-            got = blobs_of_windows(mos, sub, cs, hier, (480, 640), margin, min_area)
+            got = blobs_of_windows(mos, sub, *contours(sub), (480, 640), margin, min_area)
             ref = _reference(mos, sub, cs, hier, (480, 640), margin, min_area)
             assert len(got) == len(ref)
             for a, b in zip(got, ref, strict=True):
@@ -155,4 +156,4 @@ def test_blobs_of_windows_are_the_opencv_reference():
 def test_no_contours_no_blobs():
     mos = Mosaic([(0, 0, 20, 20)], 2)
     sub = np.zeros(mos.shape, np.uint8)
-    assert blobs_of_windows(mos, sub, (), np.empty((0, 4), np.int32), (480, 640), 3, 1.0) == []
+    assert blobs_of_windows(mos, sub, *contours(sub), (480, 640), 3, 1.0) == []

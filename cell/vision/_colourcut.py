@@ -168,7 +168,7 @@ def two_means(lab, inner, l_weight, fisher_min, min_share, min_pixels, iteration
             mean[c] += pts[i, c]
     mean /= n
     centres[0] = pts[_farthest(pts, mean)]
-    centres[1] = pts[_farthest(pts, centres[0].copy())]
+    centres[1] = pts[_farthest(pts, centres[0])]
     lab_of = np.zeros(n, np.int64)
     sums = np.empty((2, 3))
     counts = np.empty(2, np.int64)

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 from numba import njit
 
-from cell.vision._contourtree import bounding, results
+from cell.vision._contourtree import bounding, first_step, results
 from cell.vision._mask_kernel import open3
 
 __all__: list[str] = []  # private to cell.vision
@@ -199,14 +199,8 @@ def _follow(img, i0, stride, is_hole, nbd, delta, dx, dy, pts, n_pts):  # pragma
     turns) for telling borders of one label apart."""
     py, px = i0 // stride, i0 % stride
     rx, ry, rx1, ry1 = px, py, px, py
-    s_end = 0 if is_hole else 4
-    s = s_end
-    while True:
-        s = (s - 1) & 7
-        i1 = i0 + delta[s]
-        if img[i1] != 0 or s == s_end:
-            break
-    if s == s_end:  # a single pixel
+    s, i1 = first_step(img, i0, is_hole, delta)
+    if s == (0 if is_hole else 4):  # a single pixel
         img[i0] = nbd | 128
         pts = _grow(pts, n_pts + 1)
         pts[n_pts, 0], pts[n_pts, 1] = px - 1, py - 1
@@ -216,7 +210,7 @@ def _follow(img, i0, stride, is_hole, nbd, delta, dx, dy, pts, n_pts):  # pragma
     while True:
         s_end = s
         i4 = i3
-        while s < 15:
+        while s < 15:  # (next_step written out: at every border pixel a call cost 20 %)
             s += 1
             i4 = i3 + delta[s]
             if img[i4] != 0:

@@ -36,27 +36,45 @@ def bounding(img, node, cur, last_x, y, stride, delta):  # pragma: no cover (com
 
 
 @njit(cache=True)
-def _reaches(img, i0, stop, is_hole, delta):  # pragma: no cover (compiled)
-    """Whether following (without labelling) the border from flat index ``i0`` ends at
-    ``stop`` as the last border of its label met on that row (OpenCV's
-    icvTraceContour)."""
+def first_step(img, i0, is_hole, delta):  # pragma: no cover (compiled)
+    """(s, i1): the first nonzero neighbour of flat index ``i0`` clockwise from the
+    border's start direction (0 for a hole, 4 for an outer border), as OpenCV's
+    border following looks for it; s is that start direction itself (and i1 its
+    neighbour) when there is none: a single pixel."""
     s_end = 0 if is_hole else 4
     s = s_end
     while True:
         s = (s - 1) & 7
         i1 = i0 + delta[s]
         if img[i1] != 0 or s == s_end:
+            return s, i1
+
+
+@njit(cache=True)
+def next_step(img, i3, s, delta):  # pragma: no cover (compiled)
+    """(s, i4): the next nonzero neighbour of flat index ``i3`` counter-clockwise after
+    direction ``s`` (``delta`` holds the eight steps twice, so s runs up to 15 without
+    wrapping); s is not reduced mod 8."""
+    i4 = i3
+    while s < 15:
+        s += 1
+        i4 = i3 + delta[s]
+        if img[i4] != 0:
             break
+    return s, i4
+
+
+@njit(cache=True)
+def _reaches(img, i0, stop, is_hole, delta):  # pragma: no cover (compiled)
+    """Whether following (without labelling) the border from flat index ``i0`` ends at
+    ``stop`` as the last border of its label met on that row (OpenCV's
+    icvTraceContour)."""
+    s, i1 = first_step(img, i0, is_hole, delta)
     i3 = i0
-    if s == s_end:
+    if s == (0 if is_hole else 4):
         return i3 == stop
     while True:
-        i4 = i3
-        while s < 15:
-            s += 1
-            i4 = i3 + delta[s]
-            if img[i4] != 0:
-                break
+        s, i4 = next_step(img, i3, s, delta)
         if i3 == stop:
             if img[i3] & 128 == 0:
                 return True

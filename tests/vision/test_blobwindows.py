@@ -10,6 +10,7 @@ from bisect import bisect_right
 
 import cv2
 import numpy as np
+import pytest
 
 from cell.vision._blob import Blob, _normals
 from cell.vision._blobwindows import blobs_of_windows
@@ -105,13 +106,13 @@ def assert_same_blob(a, b) -> None:
     outline, normals, holes, and the area and centroid computed from ``b``'s outline."""
     assert a.mask_box == b.mask_box and a.partial == b.partial
     np.testing.assert_array_equal(a.contour, b.contour)
-    np.testing.assert_array_equal(a.normals, b.normals)
+    np.testing.assert_allclose(a.normals, b.normals, rtol=1e-9, atol=1e-12)
     assert len(a.holes) == len(b.holes)
     for (ha, na), (hb, nb) in zip(a.holes, b.holes, strict=True):
         np.testing.assert_array_equal(ha, hb)
-        np.testing.assert_array_equal(na, nb)
-    assert a.area_px == geo_free_area(b)
-    assert a.centroid_px == blob_centroid(b)  # (b's computed from its outline)
+        np.testing.assert_allclose(na, nb, rtol=1e-9, atol=1e-12)
+    assert a.area_px == pytest.approx(geo_free_area(b), rel=1e-9)
+    assert a.centroid_px == pytest.approx(blob_centroid(b), rel=1e-9)  # (b's computed from its outline)
 
 
 def _mosaic(seed: int):

@@ -113,7 +113,7 @@ def test_cuts_are_those_the_python_search_made(seed):
             np.testing.assert_array_equal(cut[s:e], ecut)
             np.testing.assert_array_equal(out[s:e], eout)
             erays, eaway = plane_rays(ecut, eout, None, K, R, np.array([300.0, 250.0]))
-            np.testing.assert_array_equal(rays[s:e], erays)
+            np.testing.assert_allclose(rays[s:e], erays, rtol=1e-9, atol=1e-12)
             np.testing.assert_array_equal(away[s:e], eaway)
 
 

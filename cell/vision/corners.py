@@ -14,6 +14,8 @@ scaling and unnormalised box sum) and is tested against it.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -57,14 +59,42 @@ def harris_response(
     return (a * c - b * b - np.float32(k) * (a + c) ** 2).astype(np.float32)
 
 
+def _spaced_greedily(points: np.ndarray, min_distance: float) -> np.ndarray:
+    """Indices of ``points`` (N, 2) kept by the greedy rule: in the given order, a
+    point is kept unless it lies closer than ``min_distance`` (Euclidean, pixels) to a
+    point already kept.
+
+    Kept points are filed in square buckets of side ``s = ceil(min_distance)`` keyed
+    by ``floor(coordinate) // s`` (integer arithmetic, so exact). Two points closer
+    than ``min_distance`` have floors at most ``s`` apart, hence lie in the same or
+    neighbouring buckets, so each point is tested against the kept points of the
+    3 x 3 buckets around it only; those are ``min_distance`` apart, so a few per
+    bucket, and the pass costs O(N) rather than O(N^2).
+    """
+    side = math.ceil(min_distance)
+    cells = (np.floor(points).astype(np.int64) // side).tolist()
+    buckets: dict[tuple[int, int], list[tuple[float, float]]] = {}
+    kept: list[int] = []
+    for i, ((x, y), (cx, cy)) in enumerate(zip(points.tolist(), cells, strict=True)):
+        near = (q for bx in (cx - 1, cx, cx + 1) for by in (cy - 1, cy, cy + 1)
+                for q in buckets.get((bx, by), ()))
+        if all(math.hypot(x - qx, y - qy) >= min_distance for qx, qy in near):
+            buckets.setdefault((cx, cy), []).append((x, y))
+            kept.append(i)
+    return np.asarray(kept, np.int64)
+
+
 def non_max_suppression(
     response: np.ndarray, *, min_distance: int, threshold: float
 ) -> np.ndarray:
     """Local maxima of ``response`` above ``threshold``, at least ``min_distance`` apart.
 
     A pixel is kept when it equals the maximum of its (2 min_distance + 1)^2
-    neighbourhood; flat plateaus collapse to their centroid; then, strongest first,
+    neighbourhood (``cv2.dilate``); flat plateaus (8-connected kept pixels) collapse
+    to their centroid; then, strongest first (equal strengths in OpenCV's label order),
     any kept point closer than ``min_distance`` (pixels) to a stronger one is dropped.
+    That last pass files points in a grid of ``min_distance`` buckets, so the whole
+    costs O(pixels + points), not O(points^2).
 
     Returns (N, 2) float64 points (x, y), strongest first.
     """
@@ -81,11 +111,7 @@ def non_max_suppression(
     np.maximum.at(strength, labels[keep], response[keep])
     order = np.argsort(-strength[1:], kind="stable") + 1
     pts = cents[order]
-    chosen: list[np.ndarray] = []
-    for p in pts:
-        if all(np.hypot(*(p - q)) >= min_distance for q in chosen):
-            chosen.append(p)
-    return np.array(chosen)
+    return pts[_spaced_greedily(pts, min_distance)]
 
 
 def harris_corners(

@@ -3,7 +3,8 @@
 A 2-D array is read row by row (C order) as one sequence; each run of equal values
 becomes (value, length). A binary mask stores only its first value, since values
 alternate. The byte form writes run lengths as LEB128 varints (7 bits per byte, high
-bit = more), so short runs cost one byte.
+bit = more), so short runs cost one byte. An empty array (0 rows or 0 columns) has no
+runs; its byte form is the header alone, which keeps its shape.
 
 References: Gonzalez & Woods, *Digital Image Processing*, 4th ed., 8.2 (run-length
 coding; CCITT Group 3/4 fax uses it for binary documents); LEB128 as in DWARF 5,
@@ -30,7 +31,8 @@ _MAGIC = b"RLE1"
 @dataclass(frozen=True, eq=False)
 class RunLength:
     """Runs of a 2-D array: ``shape`` (H, W), ``binary`` (a bool mask), ``values``
-    (uint8, one per run) and ``lengths`` (int64, one per run, summing to H * W)."""
+    (uint8, one per run) and ``lengths`` (int64, one per run, summing to H * W; none
+    for an empty array)."""
 
     shape: tuple[int, int]
     binary: bool
@@ -39,7 +41,8 @@ class RunLength:
 
 
 def rle_encode(array: np.ndarray) -> RunLength:
-    """Run-length encode a bool mask or uint8 image (H, W), row-major, vectorised."""
+    """Run-length encode a bool mask or uint8 image (H, W), row-major, vectorised; an
+    empty array (H or W zero) gives no runs."""
     a = check_array("array", array, dtypes=(np.bool_, np.uint8), ndim=(2,), min_size=0)
     flat = a.ravel().view(np.uint8)
     if flat.size == 0:
@@ -62,14 +65,14 @@ def rle_decode(rle: RunLength) -> np.ndarray:
 
 
 def _varint_encode(x: np.ndarray) -> bytes:
-    """LEB128 of non-negative integers, vectorised."""
+    """LEB128 of non-negative integers, vectorised (no integers: no bytes)."""
     x = x.astype(np.uint64)
     nbytes = np.ones(len(x), np.int64)
     for k in range(1, 10):
         nbytes += (x >> np.uint64(7 * k)) > 0
     total = int(nbytes.sum())
     owner = np.repeat(np.arange(len(x)), nbytes)
-    first = np.r_[0, np.cumsum(nbytes)[:-1]]
+    first = np.cumsum(nbytes) - nbytes  # offset of each integer's first byte
     k = np.arange(total) - np.repeat(first, nbytes)
     groups = (x[owner] >> (np.uint64(7) * k.astype(np.uint64))) & np.uint64(0x7F)
     more = (k < nbytes[owner] - 1).astype(np.uint64) << np.uint64(7)
@@ -95,7 +98,8 @@ def _varint_decode(buf: np.ndarray, count: int) -> tuple[np.ndarray, int]:
 
 def rle_to_bytes(rle: RunLength) -> bytes:
     """Serialise: magic, H, W (uint32), flags, run count, values (one byte for a mask:
-    the first value; one per run otherwise), then the lengths as LEB128 varints."""
+    the first value; one per run otherwise), then the lengths as LEB128 varints. With
+    no runs (an empty array) only the 17-byte header is written."""
     head = _MAGIC + struct.pack("<IIBI", rle.shape[0], rle.shape[1], int(rle.binary),
                                 len(rle.lengths))
     values = rle.values[:1].tobytes() if rle.binary else rle.values.astype(np.uint8).tobytes()

@@ -15,7 +15,6 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from cell.errors import VisionError
 from cell.vision._checks import check_choice, check_gray, check_odd, check_range
 
 __all__ = [
@@ -68,42 +67,43 @@ def threshold_otsu(image: np.ndarray) -> int:
     return int(t)
 
 
-def threshold_iterative(image: np.ndarray, *, tol: float = 0.5, max_iter: int = 100) -> float:
-    """Iterative (isodata) threshold of Ridler and Calvard.
+def threshold_iterative(image: np.ndarray) -> int:
+    """Iterative (isodata) threshold of Ridler and Calvard, by scikit-image's rule.
 
-    Start at the mean grey level; split the pixels at ``t`` into two classes; set
-    ``t`` to the midpoint of the two class means; repeat until ``t`` moves less than
-    ``tol`` grey levels. Computed on the 256-bin histogram, so each iteration costs
-    O(256) after one pass over the image.
+    The threshold is the lowest grey level ``t`` with
+
+        t <= (mean of pixels <= t + mean of pixels > t) / 2 < t + 1,
+
+    searched over ``min(image) <= t < max(image)`` on the 256-bin histogram (one pass
+    over the image, then O(256)). It is the level where Ridler and Calvard's
+    iteration (split at ``t``, move ``t`` to the midpoint of the two class means,
+    rounded down) stops when started from the darkest level; an image may have
+    several such levels (bimodal classes, plateaus), and this returns the lowest, as
+    ``skimage.filters.threshold_isodata`` does. An image of one grey level returns
+    that level.
 
     Parameters
     ----------
     image : uint8 (H, W).
-    tol : convergence tolerance in grey levels (> 0).
-    max_iter : iteration cap.
 
-    Returns ``t`` (float grey level); the bright class is ``image > t``. Reference:
-    Ridler & Calvard 1978; scikit-image ``threshold_isodata`` follows the same rule.
+    Returns ``t`` (0..255); the bright class is ``image > t``. Reference: Ridler &
+    Calvard 1978; equals ``skimage.filters.threshold_isodata(image)`` (scikit-image
+    0.26), whose float32 pixel counts are exact below 2**24 pixels (larger images
+    may differ by rounding there; the counts here are exact).
     """
     image = check_gray("image", image)
-    if tol <= 0:
-        raise VisionError(f"argument 'tol': expected > 0, got {tol!r}")
-    hist = np.bincount(image.ravel(), minlength=256).astype(np.float64)
-    levels = np.arange(256, dtype=np.float64)
-    csum, cmass = np.cumsum(hist), np.cumsum(hist * levels)
-    total, mass = csum[-1], cmass[-1]
-    t = mass / total
-    for _ in range(max_iter):
-        k = int(np.floor(t))
-        n_low = csum[k]
-        n_high = total - n_low
-        if n_low == 0 or n_high == 0:
-            return float(t)
-        new_t = 0.5 * (cmass[k] / n_low + (mass - cmass[k]) / n_high)
-        if abs(new_t - t) < tol:
-            return float(new_t)
-        t = new_t
-    return float(t)
+    hist = np.bincount(image.ravel(), minlength=256)
+    levels = np.flatnonzero(hist)
+    lo, hi = int(levels[0]), int(levels[-1])
+    if lo == hi:
+        return lo
+    t = np.arange(lo, hi)  # candidates: both classes non-empty
+    n_low = np.cumsum(hist[lo:hi]).astype(np.float64)
+    mass_low = np.cumsum(hist[lo:hi] * t).astype(np.float64)
+    n_all, mass_all = float(hist.sum()), float(hist @ np.arange(256))
+    midpoint = (mass_low / n_low + (mass_all - mass_low) / (n_all - n_low)) / 2.0
+    distance = midpoint - t
+    return int(t[(distance >= 0) & (distance < 1)][0])
 
 
 def threshold_adaptive(
@@ -114,23 +114,28 @@ def threshold_adaptive(
     method: str = "mean",
     polarity: str = "bright",
 ) -> np.ndarray:
-    """Local threshold: each pixel against the (mean or Gaussian-weighted) mean of its
-    ``block_size`` x ``block_size`` neighbourhood.
+    """Local threshold: each pixel against ``m``, the mean of its ``block_size`` x
+    ``block_size`` neighbourhood rounded to a grey level.
 
-    ``polarity="bright"``: object where ``image > local_mean + offset``;
-    ``"dark"``: object where ``image < local_mean - offset``. Choose ``block_size``
-    larger than the objects so the local mean is mostly background.
+    ``polarity="bright"``: object where ``image > m + offset``; ``"dark"``: object
+    where ``image <= m - offset`` (as in :func:`threshold_fixed`, the dark side
+    includes the level). ``m`` is the box mean (``method="mean"``) or the
+    Gaussian-weighted mean (``"gaussian"``, sigma ``0.3 ((block_size - 1) / 2 - 1) +
+    0.8``, OpenCV's rule from the size), computed with a replicated border and
+    rounded to the nearest integer (ties to even), as ``cv2.adaptiveThreshold`` does.
+    Choose ``block_size`` larger than the objects so the local mean is mostly
+    background.
 
     Parameters
     ----------
     image : uint8 (H, W).
     block_size : odd neighbourhood size in pixels (>= 3).
-    offset : margin above (below) the local mean, grey levels.
-    method : "mean" (box filter) or "gaussian" (Gaussian weights, sigma from size).
+    offset : margin above (below) the local mean, grey levels (any real).
+    method : "mean" or "gaussian".
     polarity : "bright" or "dark".
 
-    Returns a bool (H, W) mask. Wraps ``cv2.adaptiveThreshold``
-    (Gonzalez & Woods 10.3.7, variable thresholding).
+    Returns a bool (H, W) mask. Wraps ``cv2.adaptiveThreshold`` with
+    ``THRESH_BINARY`` (Gonzalez & Woods 10.3.7, variable thresholding).
     """
     image = check_gray("image", image)
     check_odd("block_size", block_size, minimum=3)
@@ -139,12 +144,10 @@ def threshold_adaptive(
     cv_method = (
         cv2.ADAPTIVE_THRESH_MEAN_C if method == "mean" else cv2.ADAPTIVE_THRESH_GAUSSIAN_C
     )
-    if polarity == "bright":
-        # cv2: dst = src > T(x, y) - C, so C = -offset gives src > mean + offset.
-        out = cv2.adaptiveThreshold(image, 255, cv_method, cv2.THRESH_BINARY, block_size, -offset)
-    else:
-        # THRESH_BINARY_INV: dst = src <= T - C; C = offset gives src <= mean - offset.
-        out = cv2.adaptiveThreshold(
-            image, 255, cv_method, cv2.THRESH_BINARY_INV, block_size, offset
-        )
-    return out > 0
+    # THRESH_BINARY: dst = src > m - C (exact for a fractional C: OpenCV compares the
+    # integer src - m with -ceil(C)). Bright: C = -offset gives src > m + offset.
+    # Dark: the complement of C = offset, src <= m - offset. (THRESH_BINARY_INV is
+    # not used: it compares with floor(C), i.e. src <= m - floor(offset).)
+    c = -offset if polarity == "bright" else offset
+    out = cv2.adaptiveThreshold(image, 255, cv_method, cv2.THRESH_BINARY, block_size, c)
+    return out > 0 if polarity == "bright" else out == 0

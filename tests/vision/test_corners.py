@@ -35,6 +35,81 @@ def test_nms_keeps_one_point_per_peak():
     assert pts.tolist() == [[10.0, 10.0], [20.0, 20.0], [5.5, 25.0]]
 
 
+def _quadratic_nms(response, min_distance, threshold):
+    """The former non-maximum suppression, kept as the reference: the same dilation
+    and plateau centroids, then every candidate against every kept one (O(n^2))."""
+    size = 2 * min_distance + 1
+    peak = cv2.dilate(response, np.ones((size, size), np.uint8))
+    keep = (response >= peak) & (response > threshold)
+    n, labels, _, cents = cv2.connectedComponentsWithStats(keep.view(np.uint8), connectivity=8)
+    if n <= 1:
+        return np.zeros((0, 2)), 0
+    strength = np.zeros(n)
+    np.maximum.at(strength, labels[keep], response[keep])
+    chosen = []
+    for p in cents[np.argsort(-strength[1:], kind="stable") + 1]:
+        if all(np.hypot(*(p - q)) >= min_distance for q in chosen):
+            chosen.append(p)
+    return np.array(chosen), n - 1
+
+
+def _squares(rows, cols, *, cell=50, seed=0):
+    """One axis-aligned square of random size and grey per cell on a dark ground;
+    returns the image and the squares' vertices (x, y) at the pixel boundaries."""
+    rng = np.random.default_rng(seed)
+    img = np.full((rows * cell, cols * cell), 40, np.uint8)
+    vertices = []
+    for i in range(rows):
+        for j in range(cols):
+            s = int(rng.integers(cell // 3, cell * 2 // 3))
+            y = i * cell + int(rng.integers(4, cell - s - 3))
+            x = j * cell + int(rng.integers(4, cell - s - 3))
+            img[y : y + s, x : x + s] = rng.integers(120, 250)
+            vertices += [(x + dx - 0.5, y + dy - 0.5) for dx in (0, s) for dy in (0, s)]
+    return img, np.array(vertices)
+
+
+@pytest.mark.parametrize("min_distance", [1, 2, 3, 5])
+def test_nms_equals_the_quadratic_method_on_plateaus_and_ties(min_distance):
+    """Four levels: many equal, non-touching maxima within min_distance, so the greedy
+    distance pass (not only the dilation) decides."""
+    dropped = 0
+    for seed in range(6):
+        r = np.random.default_rng(seed).integers(0, 4, (60, 80)).astype(np.float32)
+        ref, n_candidates = _quadratic_nms(r, min_distance, 0.5)
+        dropped += n_candidates - len(ref)
+        np.testing.assert_array_equal(
+            non_max_suppression(r, min_distance=min_distance, threshold=0.5), ref)
+    assert dropped > 0  # the distance pass was exercised
+
+
+@pytest.mark.parametrize("min_distance", [1, 2, 4, 7])
+@pytest.mark.parametrize("seed", range(3))
+def test_nms_equals_the_quadratic_method_on_harris_responses(min_distance, seed):
+    img, _ = _squares(3, 4, seed=seed)
+    noisy = np.random.default_rng(seed).normal(0, 20, img.shape)
+    for image in (img, np.clip(cv2.GaussianBlur(img + noisy, (0, 0), 1.0), 0, 255).astype(np.uint8)):
+        r = harris_response(image, block_size=3)
+        threshold = 0.001 * float(r.max())
+        ref, _ = _quadratic_nms(r, min_distance, threshold)
+        assert len(ref) >= 48
+        np.testing.assert_array_equal(
+            non_max_suppression(r, min_distance=min_distance, threshold=threshold), ref)
+        if min_distance == 4:  # and so does harris_corners without refinement
+            np.testing.assert_array_equal(
+                harris_corners(image, block_size=3, threshold_rel=0.001, refine="none"), ref)
+
+
+def test_harris_finds_each_of_1024_corners_of_a_large_image():
+    img, truth = _squares(16, 16)
+    pts = harris_corners(img, block_size=3, threshold_rel=0.02, min_distance=4)
+    assert len(truth) == 1024
+    assert len(pts) == len(truth)
+    d = np.hypot(*(pts[:, None, :] - truth[None]).transpose(2, 0, 1))
+    assert d.min(axis=0).max() < 1.0  # every vertex found, to sub-pixel accuracy
+    assert len(set(d.argmin(axis=0).tolist())) == len(truth)  # by a point of its own
+
+
 @pytest.mark.parametrize(("yaw_deg", "seed"), [(5, 0), (10, 1), (10, 2), (15, 3)])
 def test_harris_finds_each_visible_vertex_of_a_box(yaw_deg, seed):
     cam = box_scene.camera()

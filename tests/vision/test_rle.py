@@ -14,6 +14,7 @@ from cell.vision.rle import (
 )
 
 shapes = st.tuples(st.integers(1, 40), st.integers(1, 40))
+shapes_with_empty = st.tuples(st.integers(0, 40), st.integers(0, 40))
 
 
 @settings(max_examples=200, deadline=None)
@@ -35,6 +36,33 @@ def test_image_round_trip_is_lossless_with_long_runs(img, repeat):
     back = rle_decode(rle_from_bytes(data))
     assert back.dtype == np.uint8
     np.testing.assert_array_equal(back, img)
+
+
+def _round_trip(array):
+    return rle_decode(rle_from_bytes(rle_to_bytes(rle_encode(array))))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.one_of(arrays(np.bool_, shapes_with_empty),
+                 arrays(np.uint8, shapes_with_empty, elements=st.integers(0, 2))))
+def test_round_trip_through_bytes_includes_empty_shapes(array):
+    back = _round_trip(array)
+    assert back.dtype == array.dtype
+    assert back.shape == array.shape
+    np.testing.assert_array_equal(back, array)
+
+
+@pytest.mark.parametrize("shape", [(0, 5), (5, 0), (0, 0)])
+@pytest.mark.parametrize("dtype", [np.bool_, np.uint8])
+def test_empty_array_round_trips_as_a_header_alone(shape, dtype):
+    empty = np.zeros(shape, dtype)
+    rle = rle_encode(empty)
+    assert rle.values.size == rle.lengths.size == 0
+    data = rle_to_bytes(rle)
+    assert len(data) == 17  # header only: no value byte, no lengths
+    back = rle_decode(rle_from_bytes(data))
+    assert back.shape == shape
+    assert back.dtype == dtype
 
 
 def test_worked_example():

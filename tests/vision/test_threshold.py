@@ -1,5 +1,10 @@
+import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from skimage import data
 from skimage.filters import threshold_isodata
 from skimage.filters import threshold_otsu as sk_otsu
 
@@ -31,14 +36,42 @@ def test_otsu_agrees_with_scikit_image(seed):
     assert abs(threshold_otsu(img) - sk_otsu(img)) <= 1
 
 
+def _is_isodata_fixed_point(img, t):
+    """scikit-image's rule: t <= (mean of pixels <= t + mean of pixels > t) / 2 < t + 1."""
+    low, high = img[img <= t], img[img > t]
+    return 0.0 <= 0.5 * (low.mean() + high.mean()) - t < 1.0
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_ridler_calvard_agrees_with_isodata(seed):
     img = _bimodal(seed, lo=50 + 5 * seed, hi=180, sigma=10 + seed)
     t = threshold_iterative(img)
-    assert abs(t - threshold_isodata(img)) <= 1
-    # and it is a fixed point of the rule: midpoint of the two class means
-    low, high = img[img <= t], img[img > t]
-    assert abs(t - 0.5 * (low.mean() + high.mean())) < 1.0
+    assert t == threshold_isodata(img)
+    assert _is_isodata_fixed_point(img, t)
+
+
+@pytest.mark.parametrize("name", ["moon", "text", "camera", "coins"])
+def test_iterative_equals_scikit_image_isodata_on_its_sample_images(name):
+    """Several levels can satisfy the rule (moon: 86-88, 122-124, 139-140); both pick
+    the lowest. Equal to the grey level, not within a tolerance."""
+    img = getattr(data, name)()
+    t = threshold_iterative(img)
+    assert t == threshold_isodata(img)
+    assert _is_isodata_fixed_point(img, t)
+    assert t == threshold_isodata(img, return_all=True).min()
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 30), st.integers(1, 30))),
+       st.sampled_from([0, 1, 64]))
+def test_iterative_equals_scikit_image_isodata_on_random_images(img, shift):
+    img = img >> np.uint8(shift % 8)  # also narrow ranges: 0..255, 0..127, 0..3
+    assert threshold_iterative(img) == threshold_isodata(img)
+
+
+def test_iterative_on_a_single_grey_level_returns_that_level():
+    img = np.full((5, 7), 42, np.uint8)
+    assert threshold_iterative(img) == threshold_isodata(img) == 42
 
 
 def _gradient_scene():
@@ -69,6 +102,39 @@ def test_adaptive_dark_polarity_finds_silhouettes():
     img, truth = _gradient_scene()
     mask = threshold_adaptive(255 - img, block_size=61, offset=15, polarity="dark")
     assert _iou(mask, truth) > 0.9
+
+
+def _rounded_local_mean(img, block_size, method):
+    """The documented local level: the block mean (box or Gaussian weights with
+    OpenCV's sigma from the size, replicated border) rounded to a grey level."""
+    if method == "mean":
+        m = cv2.boxFilter(img.astype(np.float64), -1, (block_size, block_size),
+                          borderType=cv2.BORDER_REPLICATE)
+    else:
+        m = cv2.GaussianBlur(img.astype(np.float32), (block_size, block_size), 0,
+                             borderType=cv2.BORDER_REPLICATE)
+    return np.rint(m)
+
+
+@pytest.mark.parametrize("method", ["mean", "gaussian"])
+@pytest.mark.parametrize("block_size", [3, 11, 31])
+@pytest.mark.parametrize("offset", [0, 7, 7.5, -3.25, 12.9])
+def test_adaptive_follows_its_documented_rule_and_opencv(method, block_size, offset):
+    img = np.random.default_rng(block_size).integers(0, 256, (97, 131), dtype=np.uint8)
+    img = cv2.GaussianBlur(img, (0, 0), 2.0)  # some local structure, many near-ties
+    m = _rounded_local_mean(img, block_size, method)
+    bright = threshold_adaptive(img, block_size=block_size, offset=offset, method=method)
+    dark = threshold_adaptive(img, block_size=block_size, offset=offset, method=method,
+                              polarity="dark")
+    np.testing.assert_array_equal(bright, img > m + offset)
+    np.testing.assert_array_equal(dark, img <= m - offset)
+    cv_method = {"mean": cv2.ADAPTIVE_THRESH_MEAN_C, "gaussian": cv2.ADAPTIVE_THRESH_GAUSSIAN_C}
+    cv = cv2.adaptiveThreshold(img, 255, cv_method[method], cv2.THRESH_BINARY, block_size, -offset)
+    np.testing.assert_array_equal(bright, cv > 0)
+    if float(offset).is_integer():  # OpenCV's THRESH_BINARY_INV floors a fractional C
+        cv = cv2.adaptiveThreshold(img, 255, cv_method[method], cv2.THRESH_BINARY_INV,
+                                   block_size, offset)
+        np.testing.assert_array_equal(dark, cv > 0)
 
 
 def test_threshold_errors_name_the_argument():

@@ -12,9 +12,10 @@ from dataclasses import dataclass
 from cell.config import setting
 from cell.errors import ScenarioError
 
-__all__ = ["THRESHOLD_METHODS", "VisionSettings"]
+__all__ = ["SEGMENTATIONS", "THRESHOLD_METHODS", "VisionSettings"]
 
 THRESHOLD_METHODS = ("auto", "fixed", "otsu")
+SEGMENTATIONS = ("belt", "fixed", "otsu", "iterative", "adaptive")
 
 
 @dataclass(frozen=True)
@@ -25,6 +26,26 @@ class VisionSettings:
     channel difference, grey levels), thresholded by ``threshold_method``.
     """
 
+    segmentation: str = setting(
+        "belt",
+        choices=SEGMENTATIONS,
+        doc="foreground method: belt (difference from the belt learned from the frame, "
+        "thresholded at its noise level), or a textbook threshold of the grey image: fixed "
+        "(at 'threshold'), otsu, iterative (Ridler-Calvard), adaptive (local mean)",
+    )
+    threshold: int = setting(
+        150, lo=0, hi=255, doc="grey level of the fixed segmentation (parts above it)"
+    )
+    belt_floor: int = setting(
+        8, lo=1, hi=254,
+        doc="belt segmentation: the lowest threshold on the colour difference (grey levels)",
+    )
+    adaptive_block: int = setting(
+        101, lo=3, hi=1001, doc="adaptive segmentation: neighbourhood size (px, odd)"
+    )
+    adaptive_offset: float = setting(
+        10.0, lo=0.0, hi=255.0, doc="adaptive segmentation: margin above the local mean"
+    )
     threshold_method: str = setting(
         "auto",
         choices=THRESHOLD_METHODS,
@@ -57,7 +78,7 @@ class VisionSettings:
         "outline where an edge pixel is half covered)",
     )
     shadow_chroma: float = setting(
-        0.15, lo=0.0, hi=1.0,
+        0.25, lo=0.0, hi=1.0,
         doc="a darker pixel whose channel ratios to the background differ by less than this "
         "fraction is shadow, not part (0 = keep shadows)",
     )
@@ -84,7 +105,7 @@ class VisionSettings:
         "threshold: fainter ones are belt texture or noise (0 = search all)",
     )
     partial_min_width: float = setting(
-        0.008, lo=0.0, hi=1.0,
+        0.010, lo=0.0, hi=1.0,
         doc="a blob at the image border is reported (as partial) only if at least this wide "
         "(m): thinner strips there are belt edges and rails, or slivers of a part",
     )
@@ -112,6 +133,9 @@ class VisionSettings:
     def _validate(self, where: str) -> None:
         if self.smooth and self.smooth % 2 == 0:
             raise ScenarioError(f"{where}: key 'vision.smooth' must be odd or 0, got {self.smooth}")
+        if self.adaptive_block % 2 == 0:
+            raise ScenarioError(
+                f"{where}: key 'vision.adaptive_block' must be odd, got {self.adaptive_block}")
         if self.min_area_mm2 >= self.max_area_mm2:
             raise ScenarioError(
                 f"{where}: key 'vision.min_area_mm2' must be below 'vision.max_area_mm2'"

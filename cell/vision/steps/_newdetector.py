@@ -1,0 +1,181 @@
+"""``PartDetector``: one RGB frame and its camera model in, a list of ``Detection`` out.
+
+The detector uses the image, the camera model, the ``[vision]`` settings and the
+catalogue's nominal part sizes and finishes; never the simulator. Its steps, each one
+module of :mod:`cell.vision.steps`, in the order they run:
+
+1. **foreground** (:mod:`~cell.vision.steps.foreground`): the belt learned from the
+   frame itself, or a textbook threshold (``vision.segmentation``);
+2. **outlines** (:mod:`~cell.vision.steps.outlines`): one outline per blob, re-thresholded
+   at a fraction of its own contrast, shadows dropped;
+3. **kind** (:mod:`~cell.vision.steps.footprint`, :mod:`~cell.vision.steps.kind`): the
+   outline mapped onto the table plane, free of perspective, and scored per kind;
+4. **touching parts** (:mod:`~cell.vision.steps.split`): a blob that fits no kind is cut;
+5. **material** (:mod:`~cell.vision.steps.material`): grain and white-balanced albedo;
+6. **pose** (:mod:`~cell.vision.steps.pose`): position and yaw on the table plane.
+
+A blob at the image border is reported ``partial``, with kind ``unknown`` and no position.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from cell.camera import CameraModel
+from cell.catalogue import KINDS
+from cell.errors import VisionError
+from cell.vision._checks import check_colour
+from cell.vision.settings import VisionSettings
+from cell.vision.steps.footprint import TablePlane
+from cell.vision.steps.foreground import Foreground, find_foreground
+from cell.vision.steps.kind import KindFit, fit_kind
+from cell.vision.steps.material import part_materials
+from cell.vision.steps.outlines import Outline, find_outlines
+from cell.vision.steps.pose import part_pose
+from cell.vision.steps.split import Piece, split_blob
+
+__all__ = ["Detection", "PartDetector"]
+
+_LONGEST = max(k.length for k in KINDS.values())  # m: the longest part
+_WELL = 9.0  # a blob whose kind scores under this is one part: no cut is tried
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One part found in a frame.
+
+    ``id`` numbers the detections of one frame (1-based, left to right). ``material`` is
+    ``metal``/``plastic``/``unknown`` and ``kind`` a catalogue kind or ``unknown``, each
+    with a confidence in 0..1. ``centroid`` is the blob's pixel centroid (u, v);
+    ``yaw`` (rad) the part's heading in the world, in [0, 2*pi/symmetry) where
+    ``symmetry`` is the kind's rotational order (0 = continuous, yaw then 0).
+    ``position`` is (x, y) of the footprint centroid on the world table plane (metres),
+    ``None`` when ``partial`` (the part touches the image border); ``size`` is
+    (length, width) of the footprint (metres). ``defect`` is always False for now.
+    """
+
+    id: int
+    material: str
+    material_confidence: float
+    kind: str
+    kind_confidence: float
+    centroid: tuple[float, float]
+    yaw: float
+    symmetry: int
+    position: tuple[float, float] | None
+    size: tuple[float, float]
+    partial: bool
+    defect: bool = False
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict."""
+        out = asdict(self)
+        out["centroid"] = list(self.centroid)
+        out["position"] = None if self.position is None else list(self.position)
+        out["size"] = list(self.size)
+        return out
+
+
+class PartDetector:
+    """Finds, names and locates parts in an RGB frame. See the module docstring."""
+
+    def __init__(self, settings: VisionSettings | None = None) -> None:
+        self.settings = settings if settings is not None else VisionSettings()
+        if not isinstance(self.settings, VisionSettings):
+            raise VisionError(
+                f"argument 'settings': expected VisionSettings, got {type(settings).__name__}"
+            )
+
+    def detect(self, image: np.ndarray, camera: CameraModel) -> list[Detection]:
+        """Detections in ``image`` (uint8 RGB, (H, W, 3)) seen by ``camera``."""
+        _check_frame(image, camera)
+        st = self.settings
+        plane = TablePlane(camera, st.plane_z)
+        fg = find_foreground(image, st)                                      # step 1
+        min_px = st.min_area_mm2 * 1e-6 / plane.m_per_px**2
+        blobs = find_outlines(fg, st, min_px=min_px,                         # step 2
+                              max_px=2.5 * _LONGEST / plane.m_per_px)
+        pieces = []
+        for blob in blobs:
+            if blob.partial:
+                pieces += _partial(blob, plane, st)
+            else:
+                pieces += self._parts(blob, fit_kind(blob, plane), fg, plane)  # steps 3, 4
+        pieces.sort(key=lambda p: p.blob.centroid)
+        parts_mask = np.zeros(image.shape[:2], np.uint8)
+        for p in pieces:
+            px = p.blob.pixels
+            h, w = px.mask.shape
+            parts_mask[px.y0:px.y0 + h, px.x0:px.x0 + w] |= px.mask
+        materials = part_materials(image, parts_mask, [p.blob.pixels for p in pieces],  # step 5
+                                   settings=st, backlit=fg.backlit)
+        return [_detection(i, p, m) for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]
+
+    def _parts(self, blob: Outline, fit: KindFit, fg: Foreground, plane: TablePlane) -> list[Piece]:
+        """The part(s) in a whole blob: itself when a kind fits it well; its pieces when
+        it is touching parts; none when it is not a part."""
+        st = self.settings
+        if fit.kind != "unknown" and fit.score < _WELL:
+            return [Piece(blob, fit)]
+        if fit.kind == "unknown" and _faint(blob, fg, st.faint_contrast):
+            return []  # belt texture or noise at the threshold: no parts to search for
+        if st.split_touching:
+            pieces = split_blob(blob, fit, image=fg.image, plane=plane)
+            if pieces:
+                return pieces
+        if fit.kind == "unknown" or plane.area_mm2(blob) > st.max_area_mm2:
+            return []
+        return [Piece(blob, fit)]
+
+
+def _check_frame(image: np.ndarray, camera: CameraModel) -> None:
+    check_colour("image", image)
+    if not isinstance(camera, CameraModel):
+        raise VisionError(f"argument 'camera': expected CameraModel, got {type(camera).__name__}")
+    h, w = image.shape[:2]
+    if (camera.width, camera.height) != (w, h):
+        raise VisionError(f"argument 'camera': model is {camera.width}x{camera.height}, "
+                          f"image is {w}x{h}")
+    if h < 16 or w < 16:
+        raise VisionError(f"argument 'image': too small ({w}x{h}), need at least 16x16")
+
+
+def _faint(blob: Outline, fg: Foreground, contrast: float) -> bool:
+    """Whether the brightest tenth of a blob stands less than ``contrast`` thresholds
+    from the belt (0: never)."""
+    px = blob.pixels
+    h, w = px.mask.shape
+    diff = fg.difference[px.y0:px.y0 + h, px.x0:px.x0 + w][px.mask > 0]
+    return contrast > 0 and diff.size > 0 and np.percentile(diff, 90) < contrast * fg.threshold
+
+
+def _partial(blob: Outline, plane: TablePlane, st: VisionSettings) -> list[Piece]:
+    """A blob at the image border, as a part of kind ``unknown``, unless it is no part (a
+    rail, a belt edge, the table beyond) or a sliver."""
+    fit = fit_kind(blob, plane)
+    fp = fit.footprint
+    if (plane.area_mm2(blob) > st.max_area_mm2 or fp.length > 1.3 * _LONGEST
+            or fp.width < st.partial_min_width):
+        return []
+    return [Piece(blob, KindFit("unknown", 0.0, fit.score, fp))]
+
+
+def _detection(i: int, piece: Piece, material: tuple[str, float]) -> Detection:
+    fp, kind = piece.fit.footprint, piece.fit.kind
+    pose = part_pose(fp.outline, centroid=fp.centroid, rect_angle=fp.rect_angle,           # step 6
+                     kind=kind if not piece.blob.partial else "unknown", cut=piece.cut)
+    return Detection(
+        id=i,
+        material=material[0],
+        material_confidence=round(float(material[1]), 4),
+        kind=kind,
+        kind_confidence=round(float(piece.fit.confidence), 4),
+        centroid=(float(piece.blob.centroid[0]), float(piece.blob.centroid[1])),
+        yaw=pose.yaw,
+        symmetry=KINDS[kind].symmetry if kind in KINDS else 0,
+        position=None if piece.blob.partial else pose.position,
+        size=(fp.length, fp.width),
+        partial=piece.blob.partial,
+    )

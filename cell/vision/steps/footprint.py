@@ -1,0 +1,174 @@
+"""Step 3a, footprint: a blob's outline mapped onto the table plane, free of perspective.
+
+A part lying on the belt, seen off-axis, shows a wall: an outline point whose outward
+normal faces away from the camera's nadir (the image point straight below the camera)
+is a top edge, the others bottom edges. Each outline point's ray (lens distortion
+removed, ``cv2.undistortPoints``) meets the plane at its own edge's height, so the
+footprint has the part's real size wherever it lies in the image (inverse perspective,
+as :func:`cell.vision.geometry.pixel_to_table`; Hartley & Zisserman, *Multiple View
+Geometry*, 2nd ed., ch. 8).
+
+Descriptors in metres (Gonzalez & Woods, *Digital Image Processing*, ch. 11): net area
+and centroid from polygon moments (``cv2.moments``), the minimum-area rectangle
+(``cv2.minAreaRect``), hole fraction, solidity (outline over convex hull,
+``cv2.convexHull``) and the six-fold facet strength: the 6th circular harmonic of the
+hull's edge directions, weighted by length (Mardia & Jupp, *Directional Statistics*,
+2000). They are computed on float32 millimetres around the outline's first point.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from cell.camera import CameraModel
+from cell.vision.steps.outlines import Outline
+
+__all__ = ["Footprint", "TablePlane", "describe"]
+
+_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """A part's outline on the table plane (metres, world x, y).
+
+    ``outline`` (N, 2) and ``holes`` (each (M, 2)) closed polygons; ``area`` the net
+    area (m^2); ``centroid`` (x, y) of that area; ``length``, ``width`` the sides of the
+    minimum-area rectangle (length >= width) and ``rect_angle`` its long side's
+    direction (rad); ``hole_fraction`` the holes' area over the outline's;
+    ``solidity`` the outline's area over its hull's; ``facets6`` 0..1 (a rendered hex
+    nut about 0.7, a circle under 0.1).
+    """
+
+    outline: np.ndarray
+    holes: tuple[np.ndarray, ...]
+    area: float
+    centroid: tuple[float, float]
+    length: float
+    width: float
+    rect_angle: float
+    hole_fraction: float
+    solidity: float
+    facets6: float
+
+
+def _moments(poly_mm: np.ndarray) -> tuple[float, float, float]:
+    """(area, first moments x, y) of a polygon (float32 mm), orientation ignored."""
+    m = cv2.moments(poly_mm)
+    sign = 1.0 if m["m00"] >= 0 else -1.0
+    return abs(m["m00"]), sign * m["m10"], sign * m["m01"]
+
+
+def _facets6(hull: np.ndarray) -> float:
+    """The 6th circular harmonic's strength of a convex polygon's edge directions."""
+    edges = np.diff(np.vstack([hull, hull[:1]]), axis=0).astype(np.float64)
+    length = np.hypot(edges[:, 0], edges[:, 1])
+    total = length.sum()
+    if total <= 0:
+        return 0.0
+    phase = np.exp(6j * np.arctan2(edges[:, 1], edges[:, 0]))
+    return float(abs((length * phase).sum()) / total)
+
+
+def describe(outline: np.ndarray, holes: tuple[np.ndarray, ...] = ()) -> Footprint:
+    """The :class:`Footprint` of a polygon (N >= 3, 2) with holes, in metres."""
+    origin = outline[0]
+    outer = ((outline - origin) * 1e3).astype(np.float32)
+    a_out, sx, sy = _moments(outer)
+    a_holes = hx = hy = 0.0
+    for h in holes:
+        a, mx, my = _moments(((h - origin) * 1e3).astype(np.float32))
+        a_holes, hx, hy = a_holes + a, hx + mx, hy + my
+    net = a_out - a_holes
+    if net > 1e-6:
+        cx, cy = (sx - hx) / net, (sy - hy) / net
+    else:
+        cx, cy = (sx / a_out, sy / a_out) if a_out > 1e-9 else outer.mean(axis=0).tolist()
+    (_, _), (w, h), angle = cv2.minAreaRect(outer)
+    angle = math.radians(angle)
+    if w < h:
+        w, h, angle = h, w, angle + math.pi / 2
+    hull = cv2.convexHull(outer).reshape(-1, 2)
+    hull_area = cv2.contourArea(hull)
+    return Footprint(
+        outline=outline, holes=tuple(holes), area=max(net, 0.0) * 1e-6,
+        centroid=(float(origin[0] + cx * 1e-3), float(origin[1] + cy * 1e-3)),
+        length=w * 1e-3, width=h * 1e-3, rect_angle=math.atan2(math.sin(angle), math.cos(angle)),
+        hole_fraction=a_holes / a_out if a_out > 0 else 0.0,
+        solidity=a_out / hull_area if hull_area > 0 else 0.0,
+        facets6=_facets6(hull) if len(hull) >= 3 else 0.0,
+    )
+
+
+@dataclass(frozen=True)
+class _Rays:
+    """Per outline point: ``slope`` (N, 2), the ray's xy change per metre of drop, and
+    ``away`` (N,) bool, whether it is a top edge."""
+
+    slope: np.ndarray
+    away: np.ndarray
+
+
+class TablePlane:
+    """One camera's pixel rays onto horizontal planes (world z up, metres)."""
+
+    def __init__(self, camera: CameraModel, plane_z: float) -> None:
+        self.camera = camera
+        self.plane_z = plane_z
+        self._R = camera.T_world_camera[:3, :3]
+        self._o = camera.T_world_camera[:3, 3]
+        nadir = camera.K @ (self._R.T @ np.array([0.0, 0.0, -1.0]))
+        self._nadir = nadir[:2] / nadir[2] if nadir[2] > 1e-9 else None
+        centre = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])
+        xy = self.points(centre, np.zeros(2))
+        self.m_per_px = float(np.linalg.norm(xy[1] - xy[0]))  # at the image centre
+
+    def _slopes(self, uv: np.ndarray) -> np.ndarray:
+        """(N, 2) xy change of each pixel's ray per metre it drops."""
+        uv = uv.reshape(-1, 1, 2).astype(np.float64)
+        if np.any(self.camera.dist):  # iterated to 1e-14, as pixel_to_table
+            norm = cv2.undistortPointsIter(uv, self.camera.K, self.camera.dist, None, None,
+                                           _UNDISTORT_CRITERIA)
+        else:
+            norm = cv2.undistortPoints(uv, self.camera.K, None)
+        norm = norm.reshape(-1, 2)
+        rays = np.c_[norm, np.ones(len(norm))] @ self._R.T
+        return rays[:, :2] / -rays[:, 2:3]
+
+    def points(self, uv: np.ndarray, height: np.ndarray | float) -> np.ndarray:
+        """Where pixels ``uv`` (N, 2) meet the planes ``height`` (m) above the table."""
+        drop = self._o[2] - (self.plane_z + np.asarray(height, dtype=np.float64))
+        return self._o[:2] + self._slopes(uv) * np.reshape(drop, (-1, 1))
+
+    def rays(self, points: np.ndarray, normals: np.ndarray) -> _Rays:
+        """The rays of an outline's points (N, 2) and which face away from the nadir."""
+        if self._nadir is None:
+            away = np.zeros(len(points), bool)
+        else:
+            away = np.einsum("ij,ij->i", normals, points - self._nadir) > 0
+        return _Rays(self._slopes(points), away)
+
+    def rays_of(self, blob: Outline) -> list[_Rays]:
+        """The rays of a blob's outer ring and holes, in that order."""
+        return [self.rays(r.points, r.normals) for r in (blob.outer, *blob.holes)]
+
+    def footprint(self, rays: list[_Rays], heights: tuple) -> Footprint:
+        """The :class:`Footprint` of a blob's rays (:meth:`rays_of`) with its bottom edges
+        at ``heights[0]`` and its top edges at ``heights[1]`` above the table (m; scalars,
+        or per point of the outer ring, the holes then at their medians)."""
+        lo, hi = heights
+        polys = []
+        for i, r in enumerate(rays):
+            if i == 1:
+                lo, hi = float(np.median(lo)), float(np.median(hi))
+            drop = self._o[2] - self.plane_z - np.where(r.away, hi, lo)
+            polys.append(self._o[:2] + r.slope * drop[:, None])
+        return describe(polys[0], tuple(polys[1:]))
+
+    def area_mm2(self, blob: Outline) -> float:
+        """The blob's pixel area scaled to the table plane at the image centre (mm^2)."""
+        return blob.area * (self.m_per_px * 1e3) ** 2

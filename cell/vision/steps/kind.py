@@ -1,0 +1,150 @@
+"""Step 3b, kind: which catalogue kind a footprint is, and how well it fits.
+
+Each kind's nominal footprint seen from above (:func:`nominal_descriptors`: length and
+width of the minimum-area rectangle, hole fraction, solidity) is compared with the
+measured one; the score is the summed squared z-score of the differences (0 = exact),
+plus, for the round kinds, a one-sided term on the six-fold facet strength (a hex nut
+has sharp flats, a washer or a disc none). The blob is first mapped at mid height
+(2.5 mm) and scored against every kind; the best kind (and the runner-up, when close) is
+then mapped again with its own edge heights and scored again, keeping the better of the
+two scores (:mod:`cell.vision.steps.footprint`; a few nuts' holes and top edges fit better
+at mid height); the position is always the kind's own footprint's.
+
+The kind's confidence is its share of the likelihoods exp(-score / 2) over all kinds,
+times how well the best kind fits at all: exp(-(score - 4) / 2) once the score passes
+4 (a good fit scores 0 to 4). A footprint whose best kind is off by more than 3 sigma in
+one descriptor (a solid disc of a washer's size has no hole) or whose score passes 16
+fits no kind: ``unknown``. (Gonzalez & Woods, *Digital Image Processing*, ch. 11-12:
+descriptors and minimum-distance classification.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cell.catalogue import KINDS, PartKind
+from cell.vision.steps.footprint import Footprint, TablePlane
+from cell.vision.steps.outlines import Outline
+
+__all__ = ["KindFit", "classify_kind", "fit_kind", "nominal_descriptors", "score_kinds"]
+
+_SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
+_SIGMA_HOLE = 0.09  # tolerance on the hole fraction
+# ... of a kind without a hole: a hole there is another part's (a nut lying in an L
+# bracket's inner corner makes the pair's outline bracket-like, but adds the nut's hole)
+_SIGMA_NO_HOLE = 0.035
+_SIGMA_SOLIDITY = 0.07
+# six-fold facet strength of the round kinds (hex nut renders 0.65-0.73, circles < 0.1),
+# scored one-sided: sharper flats still make a hex nut, rounder outlines a washer
+_FACETS6 = {"hex_nut": 0.65, "washer": 0.05, "disc": 0.05}
+_SIGMA_FACETS = 0.12
+MAX_FIT = 16.0  # a best score above this fits no kind
+_GOOD_FIT = 4.0  # scores up to this are a good fit: the confidence is the share alone
+_MAX_Z2 = 9.0  # one descriptor off by more than 3 sigma: not that kind
+_MID = 0.0025  # m: the edge height of the classifying footprint
+_HOPELESS = 30.0  # a mid-height score above this for every kind: no kind near, not refined
+_REFINE_GAP = 12.0  # a runner-up this much worse at mid height is not refined
+
+
+def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
+    """(length, width, hole fraction, solidity) of a kind's nominal footprint from above."""
+    if kind.name == "bolt":
+        # a 6 mm shank 40 mm long and a hex head 10-11.5 mm wide as it rolls; the shank
+        # outlines thinner than 6 mm (its lower flanks are dark): solidity 0.64 measured
+        return kind.length, 0.011, 0.0, 0.64
+    outer = {"hex_nut": 2 * math.sqrt(3) * (kind.width / 2) ** 2,
+             "washer": math.pi * (kind.length / 2) ** 2,
+             "disc": math.pi * (kind.length / 2) ** 2}.get(kind.name, kind.length * kind.width)
+    solidity = 1.0
+    if kind.name == "l_bracket":  # legs 12 mm wide; the hull cuts the inner corner off
+        leg = 0.012
+        area = kind.length * leg + (kind.width - leg) * leg
+        solidity = area / (kind.length * kind.width - 0.5 * (kind.length - leg) * (kind.width - leg))
+    hole = math.pi * (kind.hole / 2) ** 2
+    return kind.length, kind.width, hole / outer, solidity
+
+
+KIND_NAMES = tuple(KINDS)
+_NOMINAL = np.array([nominal_descriptors(k) for k in KINDS.values()])  # (kinds, 4)
+_SIGMAS = np.array([[_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE if n[2] > 0 else _SIGMA_NO_HOLE,
+                     _SIGMA_SOLIDITY] for n in _NOMINAL])
+
+
+def _z2(fp: Footprint) -> np.ndarray:
+    """(kinds, 5) squared z-scores: length, width, hole fraction, solidity, facets."""
+    d = np.array([fp.length, fp.width, fp.hole_fraction, fp.solidity])
+    z2 = np.zeros((len(KIND_NAMES), 5))
+    z2[:, :4] = ((d - _NOMINAL) / _SIGMAS) ** 2
+    for k, name in enumerate(KIND_NAMES):
+        if name in _FACETS6:
+            off = fp.facets6 - _FACETS6[name]
+            z2[k, 4] = (min(off, 0.0) if name == "hex_nut" else max(off, 0.0)) ** 2 / _SIGMA_FACETS**2
+    return z2
+
+
+def score_kinds(fp: Footprint) -> np.ndarray:
+    """The score of ``fp`` against every kind, (kinds,) in the catalogue's order."""
+    return _z2(fp).sum(axis=1)
+
+
+@dataclass(frozen=True)
+class KindFit:
+    """The best kind of a blob: ``kind`` (a catalogue kind or ``unknown``), its
+    ``confidence`` (0..1), its ``score`` (inf when no kind is near) and the
+    ``footprint`` at that kind's edge heights (at mid height when unknown)."""
+
+    kind: str
+    confidence: float
+    score: float
+    footprint: Footprint
+
+
+def classify_kind(scores: np.ndarray, worst_z2: float = 0.0) -> tuple[str, float]:
+    """(kind or ``unknown``, confidence) from the scores (kinds,) and the best kind's
+    largest single squared z-score (see the module docstring)."""
+    best = int(np.argmin(scores))
+    s = float(scores[best])
+    if s > MAX_FIT or worst_z2 > _MAX_Z2:
+        return "unknown", 0.0
+    share = 1.0 / float(np.exp(-(scores - s) / 2).sum())
+    return KIND_NAMES[best], share * math.exp(-max(s - _GOOD_FIT, 0.0) / 2)
+
+
+def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.ndarray | float]:
+    """Heights (m) of a kind's silhouette edges facing the nadir and away from it; a
+    bolt's per outline point, from its mid-height footprint: its head (the wider end)
+    stands from the belt to its height, its lying shank's silhouette from 1.5 to 8.5 mm."""
+    h = KINDS[kind].height
+    if kind != "bolt":
+        return 0.0, h
+    axis = np.array([math.cos(mid.rect_angle), math.sin(mid.rect_angle)])
+    rel = mid.outline - mid.centroid
+    s, t = rel @ axis, np.abs(rel @ np.array([-axis[1], axis[0]]))
+    wide_max, wide_min = t[s > s.max() - 0.004].max(), t[s < s.min() + 0.004].max()
+    head = s > s.max() - 0.005 if wide_max > wide_min else s < s.min() + 0.005
+    return np.where(head, 0.0, 0.0015), np.where(head, h, 0.0085)
+
+
+def fit_kind(blob: Outline, plane: TablePlane) -> KindFit:
+    """The :class:`KindFit` of a blob (see the module docstring)."""
+    rays = plane.rays_of(blob)
+    mid = plane.footprint(rays, (_MID, _MID))
+    scores = score_kinds(mid)
+    order = np.argsort(scores)
+    if scores[order[0]] > _HOPELESS:
+        return KindFit("unknown", 0.0, math.inf, mid)
+    footprints, z2, rough = {}, _z2(mid), scores.copy()
+    for k in order[:2]:
+        if rough[k] > rough[order[0]] + _REFINE_GAP:
+            break
+        footprints[k] = fp = plane.footprint(rays, _edge_heights(KIND_NAMES[k], mid))
+        if _z2(fp)[k].sum() < scores[k]:  # (else mid height fits it better: keep its score)
+            z2[k] = _z2(fp)[k]
+            scores[k] = z2[k].sum()
+    best = int(np.argmin(scores))
+    kind, confidence = classify_kind(scores, float(z2[best].max()))
+    fp = footprints.get(best, mid) if kind != "unknown" else mid
+    return KindFit(kind, confidence, float(scores[best]), fp)

@@ -1,0 +1,309 @@
+"""Material step: metal, plastic or unknown for each part, from its own pixels.
+
+Colour alone cannot tell grey or white plastic from steel or aluminium, nor yellow plastic
+from brass, so the classifier looks at two cues that do not depend on hue:
+
+* **Grain** (texture). A machined metal surface has a fine grain that modulates the
+  brightness of its own colour; sensor noise is independent in each channel. Projecting
+  each pixel's high-pass residual (pixel minus its 3x3 mean) onto the direction of the
+  part's mean colour gives grain + noise; its length across that direction gives noise
+  only (Rayleigh: median = 1.1774 sigma). The difference of the two variances estimates
+  the grain free of the sensor noise, with a standard error, so a dim, noisy frame does
+  not fake grain (after the colour-space noise model of Healey & Kondepudy, *Radiometric
+  CCD camera calibration and noise estimation*, 1994). Scales are robust (MAD, medians),
+  and only the flatter, lit half of the pixels counts: shading, a bolt's curved flank or
+  the shadow terminator leave a residual too, but show in the gradient of the smoothed grey.
+* **Albedo**. The part's mean colour divided by the belt's colour next to it, times the
+  belt's known reflectance (a white balance against a reference surface of known colour),
+  is compared with the catalogue's finishes (a softmax over squared distances); metals
+  also read brighter under specular light. This decides when the grain is inconclusive.
+
+The albedo gives a prior P(metal), held within 0.05..0.95; clear grain multiplies its
+odds by 50, a surface that would clearly show a metal's grain but has none divides them
+by 50. Under a back-light (or against a light table) a part is a silhouette: neither cue
+exists and the material is ``"unknown"`` rather than a guess.
+
+Per part, :func:`part_materials` measures the interior, away from the edge's blend with
+the belt (the mask eroded 5x5, or 3x3 where that leaves under 150 pixels: a square nut's
+ring is 4 px wide), against the belt's colour next to it (the mean of the free pixels,
+``foreground`` not 255, of the part's box grown by 6 px).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from cell.catalogue import MATERIALS
+from cell.errors import VisionError
+from cell.vision.settings import VisionSettings
+from cell.vision.steps.foreground import noise_sigma
+
+__all__ = ["MaterialFeatures", "PartPixels", "classify_material", "material_features",
+           "part_materials"]
+
+_UNKNOWN = ("unknown", 0.0)
+_RING, _MIN_FREE = 6, 30  # belt window: the box grown by 6 px; fewer free pixels: not measured
+_MIN_PIXELS, _WIDE = 8, 150  # interior pixels needed at all; below _WIDE, erode 3x3 not 5x5
+_SUPPORT = 2  # px the filters (3x3 mean, then 3x3 Sobel) read around a pixel
+_HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
+_GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
+_SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
+_WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.2  # weak grain: see _grain_evidence
+_GRAIN_MEAN = 0.9  # a metal grain's mean brightness factor (texture mean over texels)
+_FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == "metal" else 1.0)
+                           for m in MATERIALS.values()])
+_FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
+# columns of a statistics row (_statistics)
+_N, _KEPT, _MEAN, _NORM, _S_PAR, _S_NOISE2, _UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
+
+
+@dataclass(frozen=True)
+class PartPixels:
+    """One part's own pixels: ``mask`` uint8 (h, w), nonzero on the part, whose top-left
+    corner lies at (x0, y0) of the frame (pixels)."""
+
+    x0: int
+    y0: int
+    mask: np.ndarray
+
+
+@dataclass(frozen=True)
+class MaterialFeatures:
+    """What the material classifier looks at, for one part.
+
+    ``mean_rgb`` the mean colour (grey levels); ``albedo`` the white-balanced reflectance
+    per channel (0..1, may exceed 1 under specular light); ``grain`` the grain amplitude
+    relative to the mean brightness (0 for a smooth surface); ``grain_z`` the grain
+    variance in units of its standard error (evidence that grain exists); ``clipped`` the
+    fraction of saturated pixels; ``pixels`` how many pixels were used;
+    ``grain_visibility`` how many standard errors a metal's grain (5 % of the brightness)
+    would stand above the noise here: where it is small (dim, noisy, tiny), the absence of
+    grain says nothing; ``grain_pixels`` how many of the pixels the grain was measured on
+    (the flatter, lit ones: about a quarter of an evenly lit surface).
+    """
+
+    mean_rgb: np.ndarray
+    albedo: np.ndarray
+    grain: float
+    grain_z: float
+    clipped: float
+    pixels: int
+    grain_visibility: float = 0.0
+    grain_pixels: int = 0
+
+
+def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPixels], *,
+                   settings: VisionSettings, backlit: bool) -> list[tuple[str, float]]:
+    """(material in {'metal', 'plastic', 'unknown'}, confidence) per part (module docstring).
+    ``image`` uint8 RGB (H, W, 3); ``foreground`` uint8 (H, W), 255 on any part's pixels.
+    Under 30 free pixels around a part, the belt's colour is the median colour of the free
+    pixels of the whole frame. ``unknown`` (confidence 0) for a back-lit frame, an interior
+    under 8 pixels, or a belt (or a frame without free pixels) at ``backlight_level`` or
+    brighter in every channel (a light table)."""
+    if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.shape[2:] != (3,):
+        raise VisionError(f"part_materials: argument 'image' must be uint8 (H, W, 3), got "
+                          f"{getattr(image, 'shape', type(image).__name__)}")
+    if not isinstance(foreground, np.ndarray) or foreground.shape != image.shape[:2]:
+        raise VisionError(f"part_materials: argument 'foreground' must be {image.shape[:2]}, "
+                          f"got {getattr(foreground, 'shape', type(foreground).__name__)}")
+    if not isinstance(settings, VisionSettings):
+        raise VisionError(f"part_materials: argument 'settings' must be VisionSettings, got "
+                          f"{type(settings).__name__}")
+    out = [_UNKNOWN] * len(parts)
+    rows, stats, belts = [], [], []
+    frame_belt = None  # the median of the frame's free pixels, on first need
+    for i, part in enumerate([] if backlit else parts):
+        if (inner := _interior(image, part)) is None:
+            continue
+        n_free, belt = _belt_colour(image, foreground, part)
+        if n_free < _MIN_FREE:  # hardly any belt around the part
+            if frame_belt is None:
+                free = image[foreground != 255]
+                frame_belt = np.median(free, axis=0) if len(free) else np.full(3, np.inf)
+            belt = frame_belt
+        if belt.min() < settings.backlight_level:  # (else a light table: a silhouette)
+            rows.append(i)
+            stats.append(_statistics(*inner))
+            belts.append(belt)
+    if rows:
+        stats = np.array(stats)
+        labels = _labels(_albedo(stats[:, _MEAN : _MEAN + 3], np.array(belts), settings.belt_rgb),
+                         _grain(stats, noise_sigma(image)), grain_metal=settings.grain_metal,
+                         grain_z_min=settings.grain_z_min, albedo_sigma=settings.albedo_sigma)
+        for i, label in zip(rows, labels, strict=True):
+            out[i] = label
+    return out
+
+
+def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.ndarray, *,
+                      belt_rgb: tuple[float, ...], noise_sigma: float = 0.0) -> MaterialFeatures:
+    """Grain and albedo features of one part: ``patch`` (H, W, 3) RGB around it (the
+    filters see it mirrored at its border, ``cv2.BORDER_REFLECT_101``), ``mask`` (H, W)
+    bool its interior (edges excluded, at least 8 pixels), ``belt_rgb_seen`` (3,) the belt's
+    colour next to it (grey levels), ``belt_rgb`` the belt's reflectance (0..1), the
+    white-balance reference, ``noise_sigma`` the frame's sensor noise (grey levels) if known:
+    channels near black clip the noise, so the part's own estimate (across its colour) can
+    read low; the larger of the two is used."""
+    if not isinstance(patch, np.ndarray) or patch.ndim != 3 or patch.shape[2] != 3:
+        raise VisionError(f"material_features: argument 'patch' must be (H, W, 3), got "
+                          f"{getattr(patch, 'shape', type(patch).__name__)}")
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != patch.shape[:2]:
+        raise VisionError(f"material_features: argument 'mask' must be {patch.shape[:2]}, "
+                          f"got {mask.shape}")
+    if (n := int(np.count_nonzero(mask))) < _MIN_PIXELS:
+        raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
+    if patch.dtype != np.uint8:
+        patch = np.clip(patch, 0, 255).astype(np.uint8)
+    row = _statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
+    grain, z, vis, _ = _grain(row[None], noise_sigma)[0].tolist()
+    mean = row[_MEAN : _MEAN + 3]
+    return MaterialFeatures(mean_rgb=mean, albedo=_albedo(mean, belt_rgb_seen, belt_rgb),
+                            grain=grain, grain_z=z, clipped=1.0 - row[_UNCLIPPED] / row[_N],
+                            pixels=int(row[_N]), grain_visibility=vis, grain_pixels=int(row[_KEPT]))
+
+
+def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal: float,
+                      grain_z_min: float, albedo_sigma: float) -> tuple[str, float]:
+    """``("metal" | "plastic" | "unknown", confidence)`` for one part: the albedo's nearest
+    catalogue finishes give a prior P(metal) (Gaussian tolerance ``albedo_sigma``), held
+    within 0.05..0.95; grain then multiplies the odds: clear grain (``grain >= grain_metal``
+    with ``grain_z >= grain_z_min``) on a surface bright enough to show it counts 50:1 for
+    metal; grain below 0.45 * ``grain_metal`` where a metal's grain would be clearly visible
+    (``grain_visibility`` >= 6) counts 1:50 against. Back-lit: ``unknown``, 0."""
+    if backlit:
+        return _UNKNOWN
+    f = features
+    grain = np.array([[f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1)]])
+    return _labels(np.asarray(f.albedo, np.float64)[None], grain, grain_metal=grain_metal,
+                   grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
+
+
+def _interior(image: np.ndarray, part: PartPixels) -> tuple[np.ndarray, np.ndarray] | None:
+    """(patch, mask) of the part's interior: its mask eroded (``cv2.erode``, whose default
+    border does not eat into the mask's box), cropped to the interior's bounding box and
+    ``_SUPPORT`` px around it (within the mask's box), and the frame's pixels there; None
+    under 8 pixels."""
+    if not isinstance(part, PartPixels) or not isinstance(part.mask, np.ndarray) or part.mask.ndim != 2:
+        raise VisionError(f"part_materials: argument 'parts' must hold PartPixels with a 2-D "
+                          f"mask, got {type(part).__name__}")
+    (h, w), (x0, y0) = part.mask.shape, (part.x0, part.y0)
+    if x0 < 0 or y0 < 0 or x0 + w > image.shape[1] or y0 + h > image.shape[0]:
+        raise VisionError(f"part_materials: argument 'parts': a {w}x{h} mask at ({x0}, {y0}) "
+                          f"leaves the {image.shape[1]}x{image.shape[0]} frame")
+    mask = part.mask.astype(np.uint8, copy=False)
+    inner = cv2.erode(mask, np.ones((5, 5), np.uint8))
+    if cv2.countNonZero(inner) < _WIDE:
+        inner = cv2.erode(mask, np.ones((3, 3), np.uint8))
+        if cv2.countNonZero(inner) < _MIN_PIXELS:
+            return None
+    bx, by, bw, bh = cv2.boundingRect(inner)
+    xa, ya = max(bx - _SUPPORT, 0), max(by - _SUPPORT, 0)
+    xb, yb = min(bx + bw + _SUPPORT, w), min(by + bh + _SUPPORT, h)
+    return image[y0 + ya : y0 + yb, x0 + xa : x0 + xb], inner[ya:yb, xa:xb]
+
+
+def _belt_colour(image: np.ndarray, foreground: np.ndarray, part: PartPixels) -> tuple[int, np.ndarray]:
+    """(free pixels, their mean colour) of the part's box grown by ``_RING`` px (clipped to
+    the frame): integer sums times 1 / n, as ``cv2.mean``."""
+    h, w = part.mask.shape
+    ya, xa = max(part.y0 - _RING, 0), max(part.x0 - _RING, 0)
+    win = np.s_[ya : part.y0 + h + _RING, xa : part.x0 + w + _RING]
+    free = (foreground[win] != 255).view(np.uint8)
+    n = cv2.countNonZero(free)
+    return n, np.array(cv2.mean(image[win], free)[:3])
+
+
+def _statistics(patch: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The statistics row of the pixels ``mask`` (nonzero) of the uint8 RGB ``patch``,
+    mirrored at its border (``cv2.BORDER_REFLECT_101``): pixels, pixels kept for the grain,
+    mean RGB, its length, 1.4826 * the MAD of the residual along the mean colour, the median
+    squared length of the residual across it, unclipped pixels (no channel above 253).
+
+    Grey is ``cv2.COLOR_RGB2GRAY`` smoothed by a 3x3 mean (``cv2.blur``); a pixel is kept
+    where its Sobel (``cv2.spatialGradient``) squared length is at most the part's median
+    and its smoothed grey at least the median. The residual is the pixel minus its 3x3
+    mean colour, in float32; medians are upper ones (element n // 2 in order)."""
+    p = _SUPPORT
+    pad = cv2.copyMakeBorder(patch, p, p, p, p, cv2.BORDER_REFLECT_101)
+    at = np.flatnonzero(cv2.copyMakeBorder(mask, p, p, p, p, cv2.BORDER_CONSTANT))
+    n = len(at)
+    pix = pad.reshape(-1, 3)[at]
+    means = np.array(cv2.mean(patch, mask)[:3])  # (integer sums times 1 / n)
+    grey = cv2.blur(cv2.cvtColor(pad, cv2.COLOR_RGB2GRAY), (3, 3))
+    gx, gy = (g.reshape(-1)[at].astype(np.int32) for g in cv2.spatialGradient(grey))
+    slope, lit = gx * gx + gy * gy, grey.reshape(-1)[at]
+    flat = (slope <= _upper_median(slope)) & (lit >= _upper_median(lit))
+    local = cv2.blur(pad, (3, 3)).reshape(-1, 3)[at[flat]]
+    resid = cv2.subtract(pix[flat], local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
+    norm = float(np.sqrt(means @ means))
+    unit = (means / norm if norm > 1e-6 else np.full(3, 1 / np.sqrt(3))).astype(np.float32)
+    par = cv2.transform(resid, unit[None]).reshape(-1)
+    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1) - par * par
+    mad = _upper_median(np.abs(par - _upper_median(par)))
+    unclipped = cv2.countNonZero(cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)))
+    return np.array([n, len(par), *means, norm, 1.4826 * float(mad), _upper_median(orth2),
+                     unclipped], np.float64)
+
+
+def _upper_median(v: np.ndarray):
+    """Element ``len(v) // 2`` of ``v`` in order."""
+    return np.partition(v, len(v) // 2)[len(v) // 2]
+
+
+def _grain(stats: np.ndarray, sigma: float) -> np.ndarray:
+    """(grain, grain_z, grain_visibility, grain_pixels / pixels) (P, 4) of statistics rows
+    (P, 9): the grain variance is that along the colour less the noise's (its scale across
+    the colour, a Rayleigh median over 1.1774, floored at the frame's ``sigma`` through the
+    high-pass), with its standard error."""
+    norm, s_par, kept = stats[:, _NORM], stats[:, _S_PAR], stats[:, _KEPT]
+    s_noise = np.maximum(np.sqrt(np.maximum(stats[:, _S_NOISE2], 0.0)) / 1.1774,
+                         sigma * _HIGHPASS_GAIN)
+    grain_var = s_par**2 - s_noise**2
+    se = np.sqrt(2.0 / (0.37 * np.maximum(kept, 1.0))) * (s_par**2 + s_noise**2) + 1e-9
+    grain = np.sqrt(np.maximum(grain_var, 0.0)) / np.maximum(norm / math.sqrt(3), 1.0)
+    return np.stack([grain, grain_var / se, (0.05 * norm / math.sqrt(3)) ** 2 / se,
+                     kept / stats[:, _N]], axis=1)
+
+
+def _albedo(means: np.ndarray, belt_seen: np.ndarray, belt_rgb: tuple[float, ...]) -> np.ndarray:
+    """White-balanced albedo: the mean colour over the belt's (at least 1), times its reflectance."""
+    return means / np.maximum(np.asarray(belt_seen, np.float64), 1.0) * np.asarray(belt_rgb)
+
+
+def _grain_evidence(grain: np.ndarray, z: np.ndarray, even: np.ndarray, *, grain_metal: float,
+                    grain_z_min: float) -> np.ndarray:
+    """How much of the grain's full weight (0..1) each part's grain carries: full from
+    ``grain_metal`` and ``grain_z_min``, rising linearly over the last ``_SOFT_Z`` standard
+    errors below that (one interior pixel more or less does not flip a label). A weaker
+    grain, down to ``_WEAK`` * ``grain_metal`` (a metal under a specular spot), counts
+    with ``_Z_PER_DEFICIT`` standard errors more at half ``grain_metal``, and only on an
+    evenly lit surface (at least ``_EVEN`` of its pixels flat and lit: under directional
+    light a thread's shading passes for weak grain)."""
+    deficit = 1.0 - grain / grain_metal if grain_metal > 0 else 0.0  # (unused at grain_metal 0)
+    need = np.where(grain >= grain_metal, grain_z_min, grain_z_min + _Z_PER_DEFICIT * deficit)
+    weak = (grain < grain_metal) & ((grain < _WEAK * grain_metal) | (even < _EVEN))
+    return np.where(weak, 0.0, np.clip((z - need) / _SOFT_Z + 1.0, 0.0, 1.0))
+
+
+def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_z_min: float,
+            albedo_sigma: float) -> list[tuple[str, float]]:
+    """Labels of parts from their albedos (P, 3) and grain rows (P, 4, as :func:`_grain`):
+    the albedo's softmax prior over the catalogue finishes, held within 0.05..0.95, its odds
+    multiplied by the grain's evidence (see :func:`classify_material`)."""
+    d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / albedo_sigma**2
+    w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
+    prior = np.clip(w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1), 0.05, 0.95)
+    g, z, vis, even = grain.T
+    lit = albedo.mean(axis=1) >= 0.25
+    evidence = np.where(lit, _grain_evidence(g, z, even, grain_metal=grain_metal,
+                                             grain_z_min=grain_z_min), 0.0)
+    odds = prior / (1 - prior) * np.where(evidence > 0.0, _GRAIN_ODDS**evidence, 1.0)
+    odds *= np.where((evidence <= 0.0) & lit & (g < 0.45 * grain_metal) & (vis >= 6.0),
+                     1.0 / _GRAIN_ODDS, 1.0)
+    return [("metal", q) if q >= 0.5 else ("plastic", 1 - q)
+            for q in (odds / (1 + odds)).tolist()]

@@ -1,0 +1,257 @@
+"""Step 4, touching parts: cut a blob that fits no kind into pieces that each fit one.
+
+Three kinds of cut are tried, in this order, and the one whose pieces fit their kinds
+best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
+
+1. **Straight cuts between convexity defects** (``cv2.convexHull``,
+   ``cv2.convexityDefects``): two convex parts that touch leave a notch on each side of
+   the contact (or on one side, when their edges line up); the shortest segments from a
+   deep notch to another, or straight across the blob, are tried first (Gonzalez &
+   Woods, *Digital Image Processing*, ch. 11: convex deficiency).
+2. **Distance-transform cores** (``cv2.distanceTransform``): the blob's pixels deeper
+   than a fraction of its largest depth fall apart into one core per part; every pixel
+   goes to its nearest core (``cv2.distanceTransformWithLabels``), the erosion-based
+   separation of Gonzalez & Woods, ch. 9-10. Tried when no straight cut fits well.
+3. **Colours**: two finishes that touch (a red bracket on a grey one) are two clusters
+   in Lab (2-means, ``cv2.kmeans``, L weighted 0.5), taken only when the clusters are
+   far apart (Fisher ratio >= 4) and each holds a tenth of the pixels; each cluster's
+   largest region after a 3x3 opening seeds a piece. Tried last, on the blob itself.
+
+A piece that fits no kind and is large enough to hold two parts is cut again (chains of
+up to three parts); the whole search tries at most 24 cuts per blob and keeps the best.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from cell.vision.steps.footprint import TablePlane
+from cell.vision.steps.kind import KindFit, fit_kind
+from cell.vision.steps.material import PartPixels
+from cell.vision.steps.outlines import Outline, outline_of_mask
+
+__all__ = ["Piece", "split_blob"]
+
+_GOOD = 6.0  # mean piece score at which a cut is taken without trying more
+_ACCEPT = 9.0  # a piece (or a cut, on average) scoring worse fits no kind
+_MIN_PAIR_MM2 = 200.0  # two parts cover at least this (mm^2): a smaller piece is not cut
+_BUDGET = 24  # cuts tried per blob, all depths together
+_MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest is 11 mm)
+_BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better
+_MIN_NOTCH_PX = 2.0  # a convexity defect at least this deep (px) may be a contact
+_CORE_LEVELS = (0.5, 0.65, 0.8)
+_SQUARE = np.ones((3, 3), np.uint8)  # fractions of the largest depth that make the cores
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One part cut out of a blob: its ``blob`` (outline and pixels), its ``fit``, and how
+    many of its outline's last points lie on a cut (not an edge of the part: the yaw
+    leaves them out)."""
+
+    blob: Outline
+    fit: KindFit
+    cut: int = 0
+
+
+@dataclass
+class _Search:
+    plane: TablePlane
+    image: np.ndarray
+    frame: tuple[int, int]
+    budget: int = _BUDGET
+
+
+def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: TablePlane) -> list[Piece]:
+    """The pieces of a blob of touching parts, or [] when no cut gives pieces that fit
+    (see the module docstring). ``whole`` is the blob's own fit; ``image`` the uint8 RGB
+    frame (for the colour cut)."""
+    if plane.area_mm2(blob) <= _MIN_PAIR_MM2 or whole.footprint.width < _MIN_WIDTH:
+        return []  # too small for two parts, or narrower than any part: a strip
+    limit = _ACCEPT
+    if whole.kind != "unknown":  # it fits a kind, poorly: a clearly better cut wins
+        limit = max(_ACCEPT, min(whole.score - _BETTER, _POOR))
+    h, w = image.shape[:2]
+    cost, pieces = _best_cut(blob.pixels, _Search(plane, image, (w, h)), depth=0)
+    return pieces if cost < limit else []
+
+
+def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float, list[Piece]]:
+    """(mean score, pieces) of the best cut of a blob's pixels, (inf, []) if none."""
+    best: tuple[float, list[Piece]] = (math.inf, [])
+    for kind_of_cut, candidate in _candidates(pixels, search, depth):
+        if search.budget <= 0:
+            break
+        if kind_of_cut == "cores" and best[0] < 0.7 * _ACCEPT:
+            continue  # a straight cut already fits well
+        if kind_of_cut == "colour" and best[0] < _ACCEPT:
+            break
+        search.budget -= 1
+        pieces = _evaluate(candidate, pixels, search, depth)
+        if pieces:
+            cost = sum(p.fit.score for p in pieces) / len(pieces)
+            if cost < best[0]:
+                best = (cost, pieces)
+            if cost < _GOOD:
+                break
+    return best
+
+
+def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixels,
+              search: _Search, depth: int) -> list[Piece]:
+    """The pieces of one cut, each fitted (and cut again when it fits no kind and may
+    hold two parts); [] when a piece fits no kind."""
+    out = []
+    for mask, segment in candidate:
+        found = outline_of_mask(mask, pixels.x0, pixels.y0, frame=search.frame)
+        if not found:
+            return []
+        blob = max(found, key=lambda b: b.area)
+        fit = fit_kind(blob, search.plane)
+        if fit.kind == "unknown" or fit.score >= _ACCEPT:
+            if depth >= 1 or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
+                return []
+            cost, sub = _best_cut(blob.pixels, search, depth=depth + 1)
+            if cost >= _ACCEPT:
+                return []
+            out += sub
+            continue
+        blob, cut = _cut_last(blob, segment, (pixels.x0, pixels.y0))
+        out.append(Piece(blob, fit, cut))
+    return out
+
+
+def _candidates(pixels: PartPixels, search: _Search, depth: int
+                ) -> Iterator[tuple[str, list[tuple[np.ndarray, tuple | None]]]]:
+    """Candidate cuts, lazily, in the order they are tried: (kind of cut, pieces), each
+    piece a mask in the blob's box with the cut segment that bounds it (or None)."""
+    mask = pixels.mask
+    for a, b in _notch_cuts(mask):
+        pieces = _cut_along(mask, a, b)
+        if pieces:
+            yield "straight", pieces
+    dist = cv2.distanceTransform(mask, cv2.DIST_L2, 5)
+    for level in _CORE_LEVELS:
+        cores = np.uint8(dist > level * dist.max())
+        if cv2.connectedComponents(cores)[0] > 2:
+            yield "cores", _nearest(mask, cores)
+    if depth == 0:
+        seeds = _colour_seeds(pixels, search.image)
+        if seeds is not None:
+            yield "colour", _nearest(mask, seeds)
+
+
+def _notch_cuts(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Straight cuts (a, b) (px, in the mask's box) from the deepest point of each deep
+    convexity defect to another such point, or to the nearest point of the outline across
+    the blob (a contact with a notch on one side only), shortest first; each runs inside
+    the blob (its midpoint does)."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    c = max(contours, key=len)
+    if len(c) < 8:
+        return []
+    hull = cv2.convexHull(c, returnPoints=False)
+    try:
+        defects = cv2.convexityDefects(c, np.sort(hull, axis=0))
+    except cv2.error:  # a self-touching contour
+        return []
+    if defects is None:
+        return []
+    deep = defects[defects[:, 0, 3] >= 256 * _MIN_NOTCH_PX, 0]
+    deep = deep[np.argsort(-deep[:, 3])][:6]
+    pts = c[:, 0].astype(np.float64)
+    cuts = []
+    for i, fi in enumerate(deep[:, 2]):
+        for fj in deep[i + 1:, 2]:
+            cuts.append((pts[fi], pts[fj]))
+        apart = np.abs((np.arange(len(pts)) - fi + len(pts) // 2) % len(pts) - len(pts) // 2)
+        dist = np.where(apart > len(pts) // 8, np.linalg.norm(pts - pts[fi], axis=1), np.inf)
+        cuts.append((pts[fi], pts[int(np.argmin(dist))]))
+    inside = [(a, b) for a, b in cuts if mask[int(round((a[1] + b[1]) / 2)), int(round((a[0] + b[0]) / 2))]]
+    return sorted(inside, key=lambda ab: float(np.linalg.norm(ab[0] - ab[1])))
+
+
+def _cut_along(mask: np.ndarray, a: np.ndarray, b: np.ndarray
+               ) -> list[tuple[np.ndarray, tuple]] | None:
+    """The two largest pieces of ``mask`` either side of the segment a-b, each with the
+    segment's pixels that touch it, or None when the segment does not cut the blob."""
+    cut = mask.copy()
+    cv2.line(cut, tuple(int(round(v)) for v in a), tuple(int(round(v)) for v in b), 0, 1,
+             cv2.LINE_8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(cut, connectivity=4)
+    if n < 3:
+        return None
+    line = np.uint8((mask > 0) & (cut == 0)) * np.uint8(255)
+    out = []
+    for k in np.argsort(-stats[1:, cv2.CC_STAT_AREA])[:2] + 1:
+        piece = np.uint8(labels == k) * np.uint8(255)
+        out.append((piece | (line & cv2.dilate(piece, _SQUARE)), (a, b)))
+    return out
+
+
+def _nearest(mask: np.ndarray, seeds: np.ndarray) -> list[tuple[np.ndarray, None]]:
+    """``mask`` shared out among ``seeds`` (uint8, nonzero: one region per piece): every
+    pixel goes to its nearest seed region."""
+    _, labels = cv2.distanceTransformWithLabels(np.uint8(seeds == 0), cv2.DIST_L2, 5,
+                                                labelType=cv2.DIST_LABEL_CCOMP)
+    inside = mask > 0
+    return [(np.uint8(inside & (labels == k)) * np.uint8(255), None)
+            for k in np.unique(labels[seeds > 0])]
+
+
+def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:
+    """Seeds of the two finishes of a blob (uint8 mask, the two largest regions of the
+    two colour clusters), or None when its colours do not form two clusters."""
+    mask = pixels.mask
+    h, w = mask.shape
+    patch = image[pixels.y0:pixels.y0 + h, pixels.x0:pixels.x0 + w]
+    inner = cv2.erode(mask, np.ones((3, 3), np.uint8)) > 0
+    lab = cv2.cvtColor(patch, cv2.COLOR_RGB2Lab).astype(np.float32) * np.float32([0.5, 1, 1])
+    data = lab[inner]
+    if len(data) < 40:
+        return None
+    cv2.setRNGSeed(0)  # (kmeans++ draws its start: the same frame gives the same cut)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 20, 0.1)
+    _, labels, centres = cv2.kmeans(data, 2, None, criteria, 1, cv2.KMEANS_PP_CENTERS)
+    labels = labels.ravel()
+    if min(np.mean(labels == 0), np.mean(labels == 1)) < 0.1:
+        return None
+    axis = centres[1] - centres[0]
+    proj = data @ axis / max(float(np.linalg.norm(axis)), 1e-9)
+    a, b = proj[labels == 0], proj[labels == 1]
+    if (a.mean() - b.mean()) ** 2 < 4.0 * (a.var() + b.var()):
+        return None
+    seeds = np.zeros((h, w), np.uint8)
+    for k in (0, 1):
+        cluster = np.zeros((h, w), np.uint8)
+        cluster[inner] = labels == k
+        cluster = cv2.morphologyEx(cluster, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        n, regions, stats, _ = cv2.connectedComponentsWithStats(cluster)
+        if n < 2:
+            return None
+        seeds[regions == 1 + np.argmax(stats[1:, cv2.CC_STAT_AREA])] = k + 1
+    return seeds
+
+
+def _cut_last(blob: Outline, segment: tuple | None, origin: tuple[int, int]
+              ) -> tuple[Outline, int]:
+    """The blob with its outline's points on the cut ``segment`` (within 1.5 px; in the
+    box whose corner is ``origin``) moved to the end, and how many they are."""
+    if segment is None:
+        return blob, 0
+    p = blob.outer.points - origin
+    a, b = segment
+    ab = b - a
+    t = np.clip(((p - a) @ ab) / max(float(ab @ ab), 1e-9), 0, 1)
+    on = np.linalg.norm(p - (a + t[:, None] * ab), axis=1) < 1.5
+    if not on.any() or on.all():
+        return blob, 0
+    end = int(np.flatnonzero(on & ~np.roll(on, -1))[-1]) + 1  # past a run on the cut
+    order = np.roll(np.arange(len(p)), -end)
+    ring = type(blob.outer)(blob.outer.points[order], blob.outer.normals[order])
+    return Outline(ring, blob.holes, blob.partial, blob.pixels, blob.area, blob.centroid), int(on.sum())

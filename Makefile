@@ -25,4 +25,3 @@ lint: $(STAMP)
 
 clean:
 	rm -rf out .pytest_cache
-	find cell -name '*.nbi' -delete -o -name '*.nbc' -delete

@@ -1,165 +1,108 @@
-# PartDetector and its classifiers (detector.py, kind.py, material.py, settings.py).
-from cell.vision.detector import Detection, PartDetector
-from cell.vision.kind import (
-    Footprint,
-    classify_kind,
-    footprint,
-    footprint_yaw,
-    score_kind,
-)
-from cell.vision.material import (
-    MaterialFeatures,
-    classify_material,
-    material_features,
-)
-from cell.vision.settings import VisionSettings
+"""``cell.vision``: image -> facts, numpy and OpenCV only; never imports mujoco.
 
-__all__ = [
-    "Detection",
-    "Footprint",
-    "MaterialFeatures",
-    "PartDetector",
-    "VisionSettings",
-    "classify_kind",
-    "classify_material",
-    "footprint",
-    "footprint_yaw",
-    "material_features",
-    "score_kind",
-]
+The part detector (:class:`PartDetector`, its steps in :mod:`cell.vision.steps`) and the
+syllabus techniques, one module each (each module's docstring names its reference).
+Names load lazily, on first use, so that loading a scenario (which reads
+:class:`VisionSettings`) does not import the detector.
+"""
 
-# Syllabus techniques, one module each (see each module's docstring for its reference).
-from cell.vision.colour import ColourStats, colour_stats, convert_colour  # noqa: E402
-from cell.vision.corners import (  # noqa: E402
-    harris_corners,
-    harris_response,
-    non_max_suppression,
-)
-from cell.vision.edges import EdgeClosure, Gradient, canny, contour_closure, sobel  # noqa: E402
-from cell.vision.features import FeatureMatch, orb_match  # noqa: E402
-from cell.vision.geometry import (  # noqa: E402
-    PlanarPose,
-    apply_homography,
-    birdseye_view,
-    homography_from_points,
-    pixel_to_table,
-    solve_planar_pnp,
-    table_homography,
-)
-from cell.vision.labeling import Components, label_components  # noqa: E402
-from cell.vision.morphology import (  # noqa: E402
-    closing,
-    dilate,
-    erode,
-    fill_holes,
-    opening,
-    separate_touching,
-    structuring_element,
-)
-from cell.vision.occupancy import OccupancyGrid, bfs_path, occupancy_grid  # noqa: E402
-from cell.vision.pixel import invert, quantize  # noqa: E402
-from cell.vision.regions import region_grow, split_and_merge  # noqa: E402
-from cell.vision.rle import (  # noqa: E402
-    CodingSizes,
-    RunLength,
-    coding_sizes,
-    rle_decode,
-    rle_encode,
-    rle_from_bytes,
-    rle_to_bytes,
-)
-from cell.vision.shape import (  # noqa: E402
-    ShapeDescriptors,
-    aspect_ratio,
-    circularity,
-    compactness,
-    count_holes,
-    describe_shape,
-    hu_moments,
-    orientation,
-    perimeter,
-)
-from cell.vision.smoothing import gaussian_iterated, median  # noqa: E402
-from cell.vision.template import (  # noqa: E402
-    Match,
-    TemplateDecision,
-    best_match,
-    match_ncc,
-    match_sad,
-    match_ssd,
-    two_template_decision,
-)
-from cell.vision.threshold import (  # noqa: E402
-    threshold_adaptive,
-    threshold_fixed,
-    threshold_iterative,
-    threshold_otsu,
-)
+from __future__ import annotations
 
-__all__ += [
-    "CodingSizes",
-    "ColourStats",
-    "Components",
-    "EdgeClosure",
-    "FeatureMatch",
-    "Gradient",
-    "Match",
-    "OccupancyGrid",
-    "PlanarPose",
-    "RunLength",
-    "ShapeDescriptors",
-    "TemplateDecision",
-    "apply_homography",
-    "aspect_ratio",
-    "best_match",
-    "bfs_path",
-    "birdseye_view",
-    "canny",
-    "circularity",
-    "closing",
-    "coding_sizes",
-    "colour_stats",
-    "compactness",
-    "contour_closure",
-    "convert_colour",
-    "count_holes",
-    "describe_shape",
-    "dilate",
-    "erode",
-    "fill_holes",
-    "gaussian_iterated",
-    "harris_corners",
-    "harris_response",
-    "homography_from_points",
-    "hu_moments",
-    "invert",
-    "label_components",
-    "match_ncc",
-    "match_sad",
-    "match_ssd",
-    "median",
-    "non_max_suppression",
-    "occupancy_grid",
-    "opening",
-    "orb_match",
-    "orientation",
-    "perimeter",
-    "pixel_to_table",
-    "quantize",
-    "region_grow",
-    "rle_decode",
-    "rle_encode",
-    "rle_from_bytes",
-    "rle_to_bytes",
-    "separate_touching",
-    "sobel",
-    "solve_planar_pnp",
-    "split_and_merge",
-    "structuring_element",
-    "table_homography",
-    "threshold_adaptive",
-    "threshold_fixed",
-    "threshold_iterative",
-    "threshold_otsu",
-    "two_template_decision",
-]
+import importlib
+
+_WHERE = {
+    # the part detector and its settings
+    "Detection": "detector",
+    "PartDetector": "detector",
+    "VisionSettings": "settings",
+    "Footprint": "steps.footprint",
+    "describe_footprint": "steps.footprint",
+    "KindFit": "steps.kind",
+    "classify_kind": "steps.kind",
+    "fit_kind": "steps.kind",
+    "score_kinds": "steps.kind",
+    "kind_yaw": "steps.pose",
+    "MaterialFeatures": "steps.material",
+    "classify_material": "steps.material",
+    "material_features": "steps.material",
+    # syllabus techniques
+    "CodingSizes": "rle",
+    "ColourStats": "colour",
+    "Components": "labeling",
+    "EdgeClosure": "edges",
+    "FeatureMatch": "features",
+    "Gradient": "edges",
+    "Match": "template",
+    "OccupancyGrid": "occupancy",
+    "PlanarPose": "geometry",
+    "RunLength": "rle",
+    "ShapeDescriptors": "shape",
+    "TemplateDecision": "template",
+    "apply_homography": "geometry",
+    "aspect_ratio": "shape",
+    "best_match": "template",
+    "bfs_path": "occupancy",
+    "birdseye_view": "geometry",
+    "canny": "edges",
+    "circularity": "shape",
+    "closing": "morphology",
+    "coding_sizes": "rle",
+    "colour_stats": "colour",
+    "compactness": "shape",
+    "contour_closure": "edges",
+    "convert_colour": "colour",
+    "count_holes": "shape",
+    "describe_shape": "shape",
+    "dilate": "morphology",
+    "erode": "morphology",
+    "fill_holes": "morphology",
+    "gaussian_iterated": "smoothing",
+    "harris_corners": "corners",
+    "harris_response": "corners",
+    "homography_from_points": "geometry",
+    "hu_moments": "shape",
+    "invert": "pixel",
+    "label_components": "labeling",
+    "match_ncc": "template",
+    "match_sad": "template",
+    "match_ssd": "template",
+    "median": "smoothing",
+    "non_max_suppression": "corners",
+    "occupancy_grid": "occupancy",
+    "opening": "morphology",
+    "orb_match": "features",
+    "orientation": "shape",
+    "perimeter": "shape",
+    "pixel_to_table": "geometry",
+    "quantize": "pixel",
+    "region_grow": "regions",
+    "rle_decode": "rle",
+    "rle_encode": "rle",
+    "rle_from_bytes": "rle",
+    "rle_to_bytes": "rle",
+    "separate_touching": "morphology",
+    "sobel": "edges",
+    "solve_planar_pnp": "geometry",
+    "split_and_merge": "regions",
+    "structuring_element": "morphology",
+    "table_homography": "geometry",
+    "threshold_adaptive": "threshold",
+    "threshold_fixed": "threshold",
+    "threshold_iterative": "threshold",
+    "threshold_otsu": "threshold",
+    "two_template_decision": "template",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module 'cell.vision' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"cell.vision.{_WHERE[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return __all__

@@ -12,9 +12,8 @@ from dataclasses import dataclass
 from cell.config import setting
 from cell.errors import ScenarioError
 
-__all__ = ["SEGMENTATIONS", "THRESHOLD_METHODS", "VisionSettings"]
+__all__ = ["SEGMENTATIONS", "VisionSettings"]
 
-THRESHOLD_METHODS = ("auto", "fixed", "otsu")
 SEGMENTATIONS = ("belt", "fixed", "otsu", "iterative", "adaptive")
 
 
@@ -22,8 +21,8 @@ SEGMENTATIONS = ("belt", "fixed", "otsu", "iterative", "adaptive")
 class VisionSettings:
     """How ``PartDetector`` separates parts from the belt and names them.
 
-    Foreground is the per-pixel colour distance from the background estimate (largest
-    channel difference, grey levels), thresholded by ``threshold_method``.
+    Foreground is chosen by ``segmentation``: the colour difference from the belt learned
+    from the frame (``belt``), or a textbook threshold of the grey image.
     """
 
     segmentation: str = setting(
@@ -46,21 +45,9 @@ class VisionSettings:
     adaptive_offset: float = setting(
         10.0, lo=0.0, hi=255.0, doc="adaptive segmentation: margin above the local mean"
     )
-    threshold_method: str = setting(
-        "auto",
-        choices=THRESHOLD_METHODS,
-        doc="foreground threshold on the belt-difference image: auto (noise-adaptive: "
-        "median + noise_k * MAD, at least threshold_value), fixed value, or Otsu",
-    )
-    threshold_value: int = setting(
-        8, lo=1, hi=254,
-        doc="fixed threshold, and the floor of auto (grey levels of colour difference)",
-    )
     noise_k: float = setting(
-        4.0, lo=1.0, hi=50.0, doc="auto threshold: noise multiples above the median difference"
-    )
-    otsu_floor: int = setting(
-        20, lo=0, hi=254, doc="lowest threshold Otsu may pick (grey levels); guards empty frames"
+        4.0, lo=1.0, hi=50.0,
+        doc="belt segmentation: the threshold in noise multiples (MAD) above the median difference"
     )
     smooth: int = setting(
         5, lo=0, hi=15,
@@ -69,8 +56,7 @@ class VisionSettings:
     )
     smooth_sigma: float = setting(
         1.0, lo=0.0, hi=5.0,
-        doc="Gaussian sigma of that noisy-frame filter (px; 0 = a box filter): it smooths "
-        "the sensor noise with less blur of the outlines than a box",
+        doc="Gaussian sigma of that noisy-frame filter (px; 0: from the aperture)",
     )
     edge_level: float = setting(
         0.3, lo=0.05, hi=0.95,
@@ -79,8 +65,9 @@ class VisionSettings:
     )
     shadow_chroma: float = setting(
         0.25, lo=0.0, hi=1.0,
-        doc="a darker pixel whose channel ratios to the background differ by less than this "
-        "fraction is shadow, not part (0 = keep shadows)",
+        doc="a pixel darker (shadow) or brighter (a pool of light) than the belt in every "
+        "channel, whose ratios to the belt differ by less than this fraction, is the belt "
+        "in other light, not part (0 = keep them)",
     )
     plane_z: float = setting(
         0.08, lo=-10.0, hi=10.0, doc="world height of the surface the parts lie on (m)"

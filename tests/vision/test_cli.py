@@ -41,7 +41,7 @@ def test_json_lists_the_parts(snapshot, capsys):
 
 def test_table_output_and_overrides(snapshot, capsys, tmp_path):
     scen = tmp_path / "s.toml"
-    scen.write_text("[vision]\nthreshold_method = \"fixed\"\nthreshold_value = 30\n")
+    scen.write_text("[vision]\nsegmentation = \"belt\"\nbelt_floor = 30\n")
     args = [str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"),
             "--scenario", str(scen), "--set", "smooth=5", "--set", "vision.noise_k=8"]
     assert main(args) == 0
@@ -54,9 +54,9 @@ def test_errors_are_one_line_naming_the_culprit(snapshot, capsys, tmp_path):
     assert cell_main(["detect", str(tmp_path / "none.png"), "--camera", cam]) == 2
     assert "none.png" in capsys.readouterr().err
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", cam,
-                      "--set", "threshold_method=magic"]) == 2
+                      "--set", "segmentation=magic"]) == 2
     err = capsys.readouterr().err
-    assert "vision.threshold_method" in err and "otsu" in err
+    assert "vision.segmentation" in err and "otsu" in err
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera",
                       str(tmp_path / "no.json")]) == 2
     assert "no.json" in capsys.readouterr().err

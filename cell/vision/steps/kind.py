@@ -11,11 +11,12 @@ two scores (:mod:`cell.vision.steps.footprint`; a few nuts' holes and top edges 
 at mid height); the position is always the kind's own footprint's.
 
 The kind's confidence is its share of the likelihoods exp(-score / 2) over all kinds,
-times how well the best kind fits at all: exp(-(score - 4) / 2) once the score passes
-4 (a good fit scores 0 to 4). A footprint whose best kind is off by more than 3 sigma in
-one descriptor (a solid disc of a washer's size has no hole) or whose score passes 16
-fits no kind: ``unknown``. (Gonzalez & Woods, *Digital Image Processing*, ch. 11-12:
-descriptors and minimum-distance classification.)
+times how well the best kind fits at all: from a score of 4 (a good fit scores 0 to 4)
+it halves by the fit limit, 16; below ``min_kind_confidence`` the kind is ``unknown``.
+A footprint whose best kind is off by more than 3 sigma in one descriptor (a solid disc
+of a washer's size has no hole) or whose score passes 16 fits no kind: ``unknown``.
+(Gonzalez & Woods, *Digital Image Processing*, ch. 11-12: descriptors and
+minimum-distance classification.)
 """
 
 from __future__ import annotations
@@ -102,15 +103,18 @@ class KindFit:
     footprint: Footprint
 
 
-def classify_kind(scores: np.ndarray, worst_z2: float = 0.0) -> tuple[str, float]:
+def classify_kind(scores: np.ndarray, worst_z2: float = 0.0, *,
+                  min_confidence: float = 0.5) -> tuple[str, float]:
     """(kind or ``unknown``, confidence) from the scores (kinds,) and the best kind's
-    largest single squared z-score (see the module docstring)."""
+    largest single squared z-score (see the module docstring); below ``min_confidence``
+    the kind is ``unknown`` (with its confidence)."""
     best = int(np.argmin(scores))
     s = float(scores[best])
     if s > MAX_FIT or worst_z2 > _MAX_Z2:
         return "unknown", 0.0
     share = 1.0 / float(np.exp(-(scores - s) / 2).sum())
-    return KIND_NAMES[best], share * math.exp(-max(s - _GOOD_FIT, 0.0) / 2)
+    confidence = share * 2.0 ** (-max(s - _GOOD_FIT, 0.0) / (MAX_FIT - _GOOD_FIT))
+    return (KIND_NAMES[best] if confidence >= min_confidence else "unknown"), confidence
 
 
 def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.ndarray | float]:
@@ -128,7 +132,7 @@ def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.nda
     return np.where(head, 0.0, 0.0015), np.where(head, h, 0.0085)
 
 
-def fit_kind(blob: Outline, plane: TablePlane) -> KindFit:
+def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -> KindFit:
     """The :class:`KindFit` of a blob (see the module docstring)."""
     rays = plane.rays_of(blob)
     mid = plane.footprint(rays, (_MID, _MID))
@@ -145,6 +149,6 @@ def fit_kind(blob: Outline, plane: TablePlane) -> KindFit:
             z2[k] = _z2(fp)[k]
             scores[k] = z2[k].sum()
     best = int(np.argmin(scores))
-    kind, confidence = classify_kind(scores, float(z2[best].max()))
+    kind, confidence = classify_kind(scores, float(z2[best].max()), min_confidence=min_confidence)
     fp = footprints.get(best, mid) if kind != "unknown" else mid
     return KindFit(kind, confidence, float(scores[best]), fp)

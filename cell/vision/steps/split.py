@@ -64,20 +64,22 @@ class _Search:
     plane: TablePlane
     image: np.ndarray
     frame: tuple[int, int]
+    min_confidence: float
     budget: int = _BUDGET
 
 
-def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: TablePlane) -> list[Piece]:
+def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: TablePlane,
+               min_confidence: float = 0.5) -> list[Piece]:
     """The pieces of a blob of touching parts, or [] when no cut gives pieces that fit
     (see the module docstring). ``whole`` is the blob's own fit; ``image`` the uint8 RGB
-    frame (for the colour cut)."""
+    frame (for the colour cut); ``min_confidence`` as :func:`~cell.vision.steps.kind.fit_kind`'s."""
     if plane.area_mm2(blob) <= _MIN_PAIR_MM2 or whole.footprint.width < _MIN_WIDTH:
         return []  # too small for two parts, or narrower than any part: a strip
     limit = _ACCEPT
     if whole.kind != "unknown":  # it fits a kind, poorly: a clearly better cut wins
         limit = max(_ACCEPT, min(whole.score - _BETTER, _POOR))
     h, w = image.shape[:2]
-    cost, pieces = _best_cut(blob.pixels, _Search(plane, image, (w, h)), depth=0)
+    cost, pieces = _best_cut(blob.pixels, _Search(plane, image, (w, h), min_confidence), depth=0)
     return pieces if cost < limit else []
 
 
@@ -112,7 +114,7 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
         if not found:
             return []
         blob = max(found, key=lambda b: b.area)
-        fit = fit_kind(blob, search.plane)
+        fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
         if fit.kind == "unknown" or fit.score >= _ACCEPT:
             if depth >= 1 or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
                 return []

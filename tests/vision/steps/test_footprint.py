@@ -1,0 +1,60 @@
+"""Step 3a: footprints on the table plane and their descriptors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cell.camera import CameraModel
+from cell.vision.geometry import pixel_to_table
+from cell.vision.steps.footprint import TablePlane, describe
+from tests.vision.steps import drawn
+
+
+def _polygon(n: int, radius: float, turn: float = 0.0, centre=(0.0, 0.0)) -> np.ndarray:
+    a = turn + np.arange(n) * 2 * np.pi / n
+    return np.stack([centre[0] + radius * np.cos(a), centre[1] + radius * np.sin(a)], 1)
+
+
+def test_rectangle_descriptors():
+    x, y = 0.1, 0.45
+    rect = np.array([[x, y], [x + 0.02, y], [x + 0.02, y + 0.01], [x, y + 0.01]])
+    fp = describe(rect)
+    assert (fp.length, fp.width) == pytest.approx((0.02, 0.01), abs=1e-7)
+    assert fp.area == pytest.approx(2e-4, rel=1e-5)
+    assert fp.centroid == pytest.approx((x + 0.01, y + 0.005), abs=1e-8)
+    assert fp.solidity == pytest.approx(1.0) and fp.hole_fraction == 0.0
+    assert math.cos(2 * fp.rect_angle) == pytest.approx(1.0, abs=1e-6)  # along x
+
+
+def test_ring_hole_fraction_and_facets():
+    washer = describe(_polygon(96, 0.010), (_polygon(96, 0.00525),))
+    assert washer.hole_fraction == pytest.approx(0.2756, abs=0.003)
+    assert washer.facets6 < 0.05
+    hexagon = describe(_polygon(6, 0.0098, turn=0.3))
+    assert hexagon.facets6 == pytest.approx(1.0, abs=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-0.12, 0.12), st.floats(0.40, 0.50), st.floats(0, 0.01),
+       st.sampled_from([0.0, -0.2]))
+def test_plane_points_equal_pixel_to_table(x, y, height, k1):
+    cam = drawn.camera()
+    cam = CameraModel(cam.width, cam.height, cam.K, np.array([k1, 0.0, 0.0, 0.0, 0.0]),
+                      cam.T_world_camera)
+    plane = TablePlane(cam, 0.08)
+    uv = np.array([[100.5, 80.25], [320.0, 240.0], [600.0, 400.0]]) + np.array([x, y - 0.45]) * 100
+    want = pixel_to_table(cam, uv, z=0.08 + height)[:, :2]
+    np.testing.assert_allclose(plane.points(uv, height), want, atol=1e-9)
+
+
+def test_top_edges_face_away_from_the_nadir():
+    plane = TablePlane(drawn.camera(), 0.08)
+    pts = np.array([[500.0, 240.0], [500.0, 240.0]])
+    rays = plane.rays(pts, np.array([[1.0, 0.0], [-1.0, 0.0]]))  # right of the nadir
+    assert rays.away.tolist() == [True, False]
+    assert plane.m_per_px == pytest.approx(1 / (drawn.PX_PER_MM * 1e3), rel=1e-9)

@@ -1,0 +1,73 @@
+"""Step 1: the belt model, the colour difference and the segmentation methods."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from cell.vision.settings import SEGMENTATIONS, VisionSettings
+from cell.vision.steps.foreground import belt_model, colour_difference, find_foreground
+from tests.vision.steps import drawn
+
+
+def test_belt_window_is_the_whole_model_resized_there():
+    rng = np.random.default_rng(3)
+    model = belt_model(rng.integers(0, 256, (480, 640, 3), dtype=np.uint8))
+    whole = model.at((640, 480))
+    for x0, y0, x1, y1 in ((0, 0, 37, 21), (100, 50, 180, 130), (601, 455, 640, 480), (8, 8, 9, 9)):
+        window = model.window(x0, y0, x1, y1)
+        for a, b in ((window.median, whole.median), (window.low, whole.low), (window.high, whole.high)):
+            np.testing.assert_array_equal(a, b[y0:y1, x0:x1])
+
+
+def test_no_difference_on_the_belt_nor_where_it_meets_the_table():
+    img = drawn.frame()
+    img[300:] = (150, 148, 140)  # the table below the belt's edge
+    cv2.circle(img, drawn.mm(-60, 20), drawn.px(10), (200, 60, 50), -1)  # a red part
+    diff = colour_difference(img, belt_model(img).at((640, 480)))
+    assert np.percentile(diff[280:320], 99) <= 6  # the edge: within the model's range
+    u, v = drawn.mm(-60, 20)
+    assert diff[v, u] > 80
+
+
+def test_the_belt_model_ignores_the_parts():
+    img = drawn.frame()
+    for x in (-100, -40, 20, 80):
+        cv2.circle(img, drawn.mm(x, 0), drawn.px(15), (230, 230, 230), -1)
+    model = belt_model(img).at((640, 480))
+    assert np.abs(model.median.astype(int) - drawn.BELT).max() <= 3
+
+
+@pytest.mark.parametrize("method", SEGMENTATIONS)
+def test_every_segmentation_finds_a_bright_part(method):
+    img = drawn.frame()
+    cv2.circle(img, drawn.mm(0, 0), drawn.px(12), (220, 220, 215), -1)
+    fg = find_foreground(img, VisionSettings(segmentation=method, threshold=150))
+    u, v = drawn.mm(0, 0)
+    assert fg.mask[v, u] == 255 and fg.mask[10, 10] == 0
+    assert cv2.countNonZero(fg.mask) == pytest.approx(np.pi * drawn.px(12) ** 2, rel=0.2)
+
+
+def test_fixed_threshold_above_the_part_finds_nothing():
+    img = drawn.frame()
+    cv2.circle(img, drawn.mm(0, 0), drawn.px(12), (120, 120, 120), -1)
+    fg = find_foreground(img, VisionSettings(segmentation="fixed", threshold=150))
+    assert cv2.countNonZero(fg.mask) == 0
+
+
+def test_a_light_table_is_backlit_and_parts_are_its_dark_silhouettes():
+    img = np.full((480, 640, 3), 250, np.uint8)
+    cv2.circle(img, drawn.mm(0, 0), drawn.px(12), (20, 20, 20), -1)
+    for method in ("belt", "otsu"):
+        fg = find_foreground(img, VisionSettings(segmentation=method))
+        u, v = drawn.mm(0, 0)
+        assert fg.backlit and fg.mask[v, u] == 255 and fg.mask[10, 10] == 0
+
+
+def test_a_noisy_frame_is_smoothed_first():
+    img = np.clip(drawn.frame().astype(np.float64) + np.random.default_rng(1).normal(0, 8, (480, 640, 3)),
+                  0, 255).astype(np.uint8)
+    fg = find_foreground(img, VisionSettings())
+    assert fg.image is not img and fg.noise > 2
+    assert cv2.countNonZero(fg.mask) < 0.001 * img.shape[0] * img.shape[1]  # no noise specks

@@ -1,0 +1,53 @@
+"""Step 4: touching parts cut apart, each piece fitting its kind where it lies."""
+
+from __future__ import annotations
+
+import cv2
+import pytest
+
+from cell.vision.settings import VisionSettings
+from cell.vision.steps.footprint import TablePlane
+from cell.vision.steps.foreground import find_foreground
+from cell.vision.steps.kind import fit_kind
+from cell.vision.steps.outlines import find_outlines
+from cell.vision.steps.split import split_blob
+from tests.vision.steps import drawn
+
+
+def _pieces(draw):
+    img = drawn.frame()
+    draw(img)
+    fg = find_foreground(img, VisionSettings())
+    (blob,) = find_outlines(fg, VisionSettings(), min_px=50, max_px=180)
+    plane = TablePlane(drawn.camera(), 0.08)
+    whole = fit_kind(blob, plane)
+    return whole, split_blob(blob, whole, image=fg.image, plane=plane), plane
+
+
+def test_two_touching_discs_come_out_as_two_discs_where_they_lie():
+    def two(img):
+        for x in (-15, 15):  # 30 mm discs, edge to edge
+            cv2.circle(img, drawn.mm(x, 0), drawn.px(15), (200, 200, 195), -1)
+    whole, pieces, _ = _pieces(two)
+    assert whole.kind == "unknown"
+    assert sorted(p.fit.kind for p in pieces) == ["disc", "disc"]
+    xs = sorted(p.fit.footprint.centroid[0] * 1e3 for p in pieces)
+    assert xs == pytest.approx([-15, 15], abs=1.0)
+
+
+def test_a_nut_touching_a_brackets_end_is_cut_off_it():
+    def bracket_and_nut(img):
+        cv2.rectangle(img, drawn.mm(-40, 6), drawn.mm(0, -6), (200, 200, 195), -1)  # long leg
+        cv2.rectangle(img, drawn.mm(-40, 24), drawn.mm(-28, 6), (200, 200, 195), -1)  # short leg
+        cv2.rectangle(img, drawn.mm(0, 9.5), drawn.mm(13, -3.5), (200, 200, 195), -1)  # a nut
+        cv2.circle(img, drawn.mm(6.5, 3), drawn.px(4), drawn.BELT, -1)  # its hole
+    _, pieces, _ = _pieces(bracket_and_nut)
+    assert sorted(p.fit.kind for p in pieces) == ["l_bracket", "square_nut"]
+    nut = next(p for p in pieces if p.fit.kind == "square_nut")
+    assert nut.fit.footprint.centroid[0] * 1e3 == pytest.approx(6.5, abs=1.0)
+    assert nut.cut > 0  # the cut is marked, for the yaw
+
+
+def test_one_part_is_not_cut():
+    _, pieces, _ = _pieces(lambda img: cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1))
+    assert pieces == []

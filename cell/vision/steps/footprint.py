@@ -163,7 +163,7 @@ class TablePlane:
         lo, hi = heights
         polys = []
         for i, r in enumerate(rays):
-            if i == 1:
+            if i == 1 and np.ndim(lo):  # (per point of the outer ring: the holes at the medians)
                 lo, hi = float(np.median(lo)), float(np.median(hi))
             drop = self._o[2] - self.plane_z - np.where(r.away, hi, lo)
             polys.append(self._o[:2] + r.slope * drop[:, None])

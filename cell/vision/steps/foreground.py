@@ -40,6 +40,7 @@ __all__ = ["BeltModel", "Foreground", "belt_model", "colour_difference", "find_f
            "noise_sigma"]
 
 _SCALE = 8  # the belt model's downscale factor
+_THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
 
 
@@ -81,14 +82,15 @@ def belt_model(image: np.ndarray) -> BeltModel:
     return BeltModel(med, cv2.erode(med, square), cv2.dilate(med, square))
 
 
-def colour_difference(image: np.ndarray, belt: BeltModel) -> np.ndarray:
-    """How far each pixel's colour lies outside the belt's nearby range (``belt`` at the
-    image's scale): the largest over the channels of (image - high) or (low - image), 0
-    inside (uint8 (H, W)). A pixel where the belt meets the table matches one of them: no
-    false edge there."""
-    out = cv2.max(cv2.subtract(image, belt.high), cv2.subtract(belt.low, image))
-    r, g, b = cv2.split(out)
-    return cv2.max(cv2.max(r, g), b)
+def colour_difference(image: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """How far each pixel's colour lies outside the belt's nearby range ``low``..``high``
+    (uint8 RGB, the image's shape): the largest over the channels of (image - high) or
+    (low - image), 0 inside (uint8 (H, W)). A pixel where the belt meets the table matches
+    one of them: no false edge there."""
+    out = cv2.max(cv2.subtract(image, high), cv2.subtract(low, image))
+    h, w = out.shape[:2]
+    # the largest channel: a 1x3 dilation of the interleaved rows, read at the middle channel
+    return np.ascontiguousarray(cv2.dilate(out.reshape(h, 3 * w), _THREE)[:, 1::3])
 
 
 @dataclass(frozen=True)
@@ -148,15 +150,15 @@ def find_foreground(image: np.ndarray, settings: VisionSettings) -> Foreground:
     h, w = image.shape[:2]
     belt = belt_model(image)
     backlit = _is_backlit(belt.median, st.backlight_level)
-    full_belt = belt.at((w, h))
-    diff = colour_difference(image, full_belt)
+    low, high = (cv2.resize(m, (w, h), interpolation=cv2.INTER_LINEAR) for m in (belt.low, belt.high))
+    diff = colour_difference(image, low, high)
     med, mad = _median_mad(diff)
     noise, smoothed = mad, image
     if st.smooth and noise > _NOISY:  # sensor noise: average first
         smoothed = cv2.GaussianBlur(image, (st.smooth, st.smooth), st.smooth_sigma)
     if st.segmentation == "belt":
         if smoothed is not image:
-            diff = colour_difference(smoothed, full_belt)
+            diff = colour_difference(smoothed, low, high)
             med, mad = _median_mad(diff)
         t = max(float(st.belt_floor), med + st.noise_k * max(mad, 0.5))
         mask = threshold_fixed(diff, value=min(t, 255.0))

@@ -13,8 +13,8 @@ at mid height); the position is always the kind's own footprint's.
 The kind's confidence is its share of the likelihoods exp(-score / 2) over all kinds,
 times how well the best kind fits at all: from a score of 4 (a good fit scores 0 to 4)
 it halves by the fit limit, 16; below ``min_kind_confidence`` the kind is ``unknown``.
-A footprint whose best kind is off by more than 3 sigma in one descriptor (a solid disc
-of a washer's size has no hole) or whose score passes 16 fits no kind: ``unknown``.
+A footprint whose hole fraction is off by more than 3 sigma from its best kind's (a solid
+disc of a washer's size has no hole) or whose score passes 16 fits no kind: ``unknown``.
 (Gonzalez & Woods, *Digital Image Processing*, ch. 11-12: descriptors and
 minimum-distance classification.)
 """
@@ -44,7 +44,7 @@ _FACETS6 = {"hex_nut": 0.65, "washer": 0.05, "disc": 0.05}
 _SIGMA_FACETS = 0.12
 MAX_FIT = 16.0  # a best score above this fits no kind
 _GOOD_FIT = 4.0  # scores up to this are a good fit: the confidence is the share alone
-_MAX_Z2 = 9.0  # one descriptor off by more than 3 sigma: not that kind
+_MAX_HOLE_Z2 = 9.0  # a hole fraction off by more than 3 sigma: not that kind
 _MID = 0.0025  # m: the edge height of the classifying footprint
 _HOPELESS = 30.0  # a mid-height score above this for every kind: no kind near, not refined
 _REFINE_GAP = 12.0  # a runner-up this much worse at mid height is not refined
@@ -103,14 +103,14 @@ class KindFit:
     footprint: Footprint
 
 
-def classify_kind(scores: np.ndarray, worst_z2: float = 0.0, *,
+def classify_kind(scores: np.ndarray, hole_z2: float = 0.0, *,
                   min_confidence: float = 0.5) -> tuple[str, float]:
     """(kind or ``unknown``, confidence) from the scores (kinds,) and the best kind's
-    largest single squared z-score (see the module docstring); below ``min_confidence``
-    the kind is ``unknown`` (with its confidence)."""
+    squared z-score of the hole fraction (see the module docstring); below
+    ``min_confidence`` the kind is ``unknown`` (with its confidence)."""
     best = int(np.argmin(scores))
     s = float(scores[best])
-    if s > MAX_FIT or worst_z2 > _MAX_Z2:
+    if s > MAX_FIT or hole_z2 > _MAX_HOLE_Z2:
         return "unknown", 0.0
     share = 1.0 / float(np.exp(-(scores - s) / 2).sum())
     confidence = share * 2.0 ** (-max(s - _GOOD_FIT, 0.0) / (MAX_FIT - _GOOD_FIT))
@@ -149,6 +149,6 @@ def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -
             z2[k] = _z2(fp)[k]
             scores[k] = z2[k].sum()
     best = int(np.argmin(scores))
-    kind, confidence = classify_kind(scores, float(z2[best].max()), min_confidence=min_confidence)
+    kind, confidence = classify_kind(scores, float(z2[best, 2]), min_confidence=min_confidence)
     fp = footprints.get(best, mid) if kind != "unknown" else mid
     return KindFit(kind, confidence, float(scores[best]), fp)

@@ -138,7 +138,7 @@ def _refined(region: np.ndarray, x0: int, y0: int, fg: Foreground, settings: Vis
     inside = (region > 0) & (fg.mask[y0:y1, x0:x1] > 0)
     if not inside.any():
         return np.zeros_like(region)
-    level = max(fg.threshold, settings.edge_level * float(np.median(diff[inside])))
+    level = max(fg.threshold, settings.edge_level * float(np.percentile(diff[inside], 25)))
     keep = np.where((region > 0) & (diff > level), np.uint8(255), np.uint8(0))
     if settings.shadow_chroma > 0 and not fg.backlit:
         belt = fg.belt.window(x0, y0, x1, y1).median

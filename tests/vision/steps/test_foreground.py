@@ -25,10 +25,21 @@ def test_no_difference_on_the_belt_nor_where_it_meets_the_table():
     img = drawn.frame()
     img[300:] = (150, 148, 140)  # the table below the belt's edge
     cv2.circle(img, drawn.mm(-60, 20), drawn.px(10), (200, 60, 50), -1)  # a red part
-    diff = colour_difference(img, belt_model(img).at((640, 480)))
+    belt = belt_model(img).at((640, 480))
+    diff = colour_difference(img, belt.low, belt.high)
     assert np.percentile(diff[280:320], 99) <= 6  # the edge: within the model's range
     u, v = drawn.mm(-60, 20)
     assert diff[v, u] > 80
+
+
+def test_colour_difference_is_the_largest_channel_outside_the_range():
+    rng = np.random.default_rng(2)
+    for shape in ((480, 640, 3), (7, 5, 3), (1, 1, 3)):
+        img, low = (rng.integers(0, 256, shape, dtype=np.uint8) for _ in range(2))
+        high = np.maximum(low, rng.integers(0, 256, shape, dtype=np.uint8))
+        i = img.astype(int)
+        want = np.maximum(np.clip(i - high, 0, None), np.clip(low - i, 0, None)).max(axis=2)
+        np.testing.assert_array_equal(colour_difference(img, low, high), want)
 
 
 def test_the_belt_model_ignores_the_parts():

@@ -7,13 +7,14 @@ and matches detections to ground truth through the segmentation image. Per prese
 prints material and kind accuracy, position error p50/p95 (mm), yaw error p95 (deg,
 modulo the kind's symmetry), false and missed detections, touching pairs split, and the
 median detection latency per frame on one thread with its ratio to the render time of
-the same frame. The latency is measured right after the frame (and the segmentation
-image that scores it) is rendered, so the software renderer has just evicted the
-detector's code and data from the CPU caches; ``p95ms`` is the 95th percentile of the
-same (a crowded frame whose cluster of touching parts the search fails to cut costs
-several times the median). ``again`` is the median of the same frames
-detected again back to back, with no render between them (the detector's own cost, as
-when a folder of images is processed). Ground truth is read here only, to score.
+the same frame, and the recall (parts found over parts fully in view); ``--cold`` adds a
+fresh process's first detection, imports included. The latency is measured right after
+the frame (and the segmentation image that scores it) is rendered, so the software
+renderer has just evicted the detector's code and data from the CPU caches; ``p95ms`` is
+the 95th percentile of the same (a crowded frame whose cluster of touching parts the
+search fails to cut costs several times the median). ``again`` is the median of the same
+frames detected again back to back, with no render between them (the detector's own
+cost, as when a folder of images is processed). Ground truth is read here only, to score.
 """
 
 from __future__ import annotations
@@ -31,14 +32,14 @@ from cell.scenario import scenario_from_dict
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
 
-__all__ = ["SEED_BASE", "main", "run"]
+__all__ = ["SEED_BASE", "cold_start", "main", "run"]
 
 SEED_BASE = 900_000  # scenes use seeds SEED_BASE + i; tests use seeds below 1000
 _PARTS_PER_SCENE = 8
 _VIEW_X = 0.165  # half-range of part centres along the belt around the pick zone (m)
 _VIEW_Y = 0.045  # half-range across the belt (m)
 _REQUIRED = {"material": 0.995, "kind": 0.99, "pos_p95_mm": 1.0, "yaw_p95_deg": 2.0,
-             "latency_ms": 3.0}
+             "latency_ms": 5.0, "latency_over_render": 0.5, "cold_s": 5.0}
 
 
 def _radius(kind: str) -> float:
@@ -257,6 +258,53 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
     return _summarise(stats, scenes, seed_base, parts)
 
 
+_COLD = """
+import sys, time
+t0 = time.perf_counter()
+import numpy as np
+from cell.camera import CameraModel
+from cell.vision.detector import PartDetector
+data = np.load(sys.argv[1])
+camera = CameraModel(int(data["width"]), int(data["height"]), data["K"], data["dist"], data["T"])
+t1 = time.perf_counter()
+dets = PartDetector().detect(data["rgb"], camera)
+t2 = time.perf_counter()
+print(t1 - t0 - 0.0, t2 - t1, len(dets))
+"""
+
+
+def cold_start(seed: int = SEED_BASE) -> dict:
+    """A fresh Python process's first detection (imports included) on one rendered
+    8-part front-lit frame, as a new user meets it: seconds from the first import to the
+    detections, and the whole process's wall time (interpreter start included)."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    from cell.sim import World, layout
+
+    sc = scenario_from_dict({"seed": seed, "parts": {"count": _PARTS_PER_SCENE}})
+    world = World.build(sc, arm=False)
+    try:
+        _place_scene(world, np.random.default_rng(seed), layout)
+        frame = world.render(depth=False, seg=False)
+    finally:
+        world.close()
+    cam = frame.camera
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "frame.npz")
+        np.savez(path, rgb=frame.rgb, width=cam.width, height=cam.height, K=cam.K, dist=cam.dist,
+                 T=cam.T_world_camera)
+        t0 = time.perf_counter()
+        out = subprocess.run([sys.executable, "-c", _COLD, path], capture_output=True, text=True,
+                             check=True, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+        process = time.perf_counter() - t0
+    imports, detect, n = out.stdout.split()
+    return {"first_detection_s": float(imports) + float(detect), "imports_s": float(imports),
+            "detect_s": float(detect), "process_s": process, "detections": int(n)}
+
+
 def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER_SCENE) -> dict:
     rows = {}
     for preset, s in stats.items():
@@ -276,6 +324,7 @@ def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER
             "yaw_p95_deg": float(np.percentile(yaw, 95)),
             "false": s["false"],
             "missed": s["missed"],
+            "recall": s["n"] / max(s["n"] + s["missed"], 1),
             "partial_ok": s["partial_ok"],
             "partial_wrong": s["partial_wrong"],
             "touching_pairs": s["touching_pairs"],
@@ -298,14 +347,16 @@ def _print(report: dict) -> None:
     print(f"cell bench vision: {report['scenes_per_preset']} scenes x "
           f"{report['parts_per_scene']} parts per preset, seeds from {report['seed_base']}")
     head = (f"{'preset':<8} {'parts':>5} {'mat%':>6} {'wrong':>5} {'unk':>4} {'kind%':>6} "
-            f"{'p50mm':>6} {'p95mm':>6} {'yaw95':>6} {'false':>5} {'miss':>4} {'touch':>7} "
+            f"{'p50mm':>6} {'p95mm':>6} {'yaw95':>6} {'false':>5} {'miss':>4} {'recall':>6} "
+            f"{'touch':>7} "
             f"{'ms':>5} {'p95ms':>5} {'again':>5} {'/part':>5} {'/render':>7}")
     print(head)
     for preset, r in report["presets"].items():
         print(f"{preset:<8} {r['parts']:>5} {100 * r['material_accuracy']:>6.1f} "
               f"{r['material_wrong']:>5} {r['material_unknown']:>4} {100 * r['kind_accuracy']:>6.1f} "
               f"{r['position_p50_mm']:>6.2f} {r['position_p95_mm']:>6.2f} {r['yaw_p95_deg']:>6.2f} "
-              f"{r['false']:>5} {r['missed']:>4} {r['touching_split']:>3}/{r['touching_pairs']:<3} "
+              f"{r['false']:>5} {r['missed']:>4} {100 * r['recall']:>6.1f} "
+              f"{r['touching_split']:>3}/{r['touching_pairs']:<3} "
               f"{r['latency_ms']:>5.2f} {r['latency_p95_ms']:>5.2f} {r['repeat_latency_ms']:>5.2f} "
               f"{r['latency_per_part_ms']:>5.2f} "
               f"{r['latency_over_render']:>7.3f}")
@@ -313,9 +364,16 @@ def _print(report: dict) -> None:
         if r["material_errors"] or r["kind_errors"]:
             print(f"  {preset}: material errors {r['material_errors']} kind errors {r['kind_errors']}")
     req = report["required"]
+    if "cold" in report:
+        c = report["cold"]
+        print(f"cold: a fresh process's first detection {c['first_detection_s']:.3f} s (import and "
+              f"detect; {c['process_s']:.2f} s with the interpreter's start), "
+              f"{c['detections']} detection(s)")
     print(f"required: material >= {100 * req['material']}% and kind >= {100 * req['kind']}% "
           f"(back: material unknown allowed, never wrong), position p95 <= {req['pos_p95_mm']} mm, "
-          f"yaw p95 <= {req['yaw_p95_deg']} deg, latency <= {req['latency_ms']} ms")
+          f"yaw p95 <= {req['yaw_p95_deg']} deg, latency <= {req['latency_ms']} ms and <= "
+          f"{req['latency_over_render']} x the render, first detection <= {req['cold_s']} s; "
+          "recall = parts found / parts fully in view")
 
 
 def main(argv: list[str]) -> int:
@@ -329,6 +387,8 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--parts", type=int, default=_PARTS_PER_SCENE,
                         help=f"parts per scene (default {_PARTS_PER_SCENE}; 1 to 3 is a pick-zone "
                         "frame)")
+    parser.add_argument("--cold", action="store_true",
+                        help="also time a fresh process's first detection (imports included)")
     parser.add_argument("--presets", default=None,
                         help="comma-separated lighting presets (default: all: "
                         f"{','.join(LIGHTING_PRESETS)}); a subset's frames carry other sensor "
@@ -347,6 +407,8 @@ def main(argv: list[str]) -> int:
     if args.seed_base < 1000:
         parser.error("--seed-base must be at least 1000 (seeds below are the tests')")
     report = run(scenes=scenes, seed_base=args.seed_base, parts=args.parts, presets=presets)
+    if args.cold:
+        report["cold"] = cold_start(args.seed_base)
     if args.json:
         print(json.dumps(report, indent=2))
     else:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from cell.benchmarks.vision import SEED_BASE, main, run
+from cell.benchmarks.vision import SEED_BASE, cold_start, main, run
 from cell.catalogue import LIGHTING_PRESETS
 
 
@@ -20,6 +20,7 @@ def test_quick_run_reports_each_preset():
         assert r["latency_ms"] > 0 and r["render_ms"] > 0 and r["repeat_latency_ms"] > 0
         assert r["latency_p95_ms"] >= r["latency_ms"]
         assert 0.0 <= r["material_accuracy"] <= 1.0
+        assert 0.0 <= r["recall"] <= 1.0
     assert report["presets"]["back"]["material_wrong"] == 0
 
 
@@ -53,3 +54,9 @@ def test_a_subset_of_presets(capsys):
     with pytest.raises(SystemExit):
         main(["--presets", "dim,bright"])
     assert "unknown bright" in capsys.readouterr().err
+
+
+def test_cold_start_times_a_fresh_process():
+    cold = cold_start()
+    assert cold["detections"] > 0
+    assert 0 < cold["detect_s"] <= cold["first_detection_s"] < cold["process_s"]

@@ -16,7 +16,7 @@ _WHERE = {
     "PartDetector": "detector",
     "VisionSettings": "settings",
     "Footprint": "steps.footprint",
-    "describe_footprint": "steps.footprint",
+    "describe_footprint": "steps.footprint:describe",
     "KindFit": "steps.kind",
     "classify_kind": "steps.kind",
     "fit_kind": "steps.kind",
@@ -99,7 +99,8 @@ __all__ = sorted(_WHERE)
 def __getattr__(name: str):
     if name not in _WHERE:
         raise AttributeError(f"module 'cell.vision' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"cell.vision.{_WHERE[name]}"), name)
+    module, _, attr = _WHERE[name].partition(":")  # ("module:attr" where the names differ)
+    value = getattr(importlib.import_module(f"cell.vision.{module}"), attr or name)
     globals()[name] = value
     return value
 

@@ -1,0 +1,35 @@
+"""The part detector's steps, one module each, in the order ``PartDetector.detect`` runs
+them (see :mod:`cell.vision.detector`):
+
+1. :mod:`~cell.vision.steps.foreground`: which pixels are not the belt;
+2. :mod:`~cell.vision.steps.outlines`: one outline per blob, on the part's edge;
+3. :mod:`~cell.vision.steps.footprint` and :mod:`~cell.vision.steps.kind`: the outline on
+   the table plane, and the catalogue kind it fits;
+4. :mod:`~cell.vision.steps.split`: touching parts cut apart;
+5. :mod:`~cell.vision.steps.material`: metal or plastic, from grain and albedo;
+6. :mod:`~cell.vision.steps.pose`: position and yaw on the table plane.
+
+Each step is plain numpy and OpenCV; data passes between them as frozen dataclasses.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_WHERE = {
+    "Foreground": "foreground", "find_foreground": "foreground",
+    "Outline": "outlines", "find_outlines": "outlines",
+    "Footprint": "footprint", "TablePlane": "footprint",
+    "KindFit": "kind", "fit_kind": "kind",
+    "Piece": "split", "split_blob": "split",
+    "PartPixels": "material", "part_materials": "material",
+    "Pose": "pose", "part_pose": "pose",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module 'cell.vision.steps' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"cell.vision.steps.{_WHERE[name]}"), name)

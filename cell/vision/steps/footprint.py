@@ -135,8 +135,7 @@ class TablePlane:
                                            _UNDISTORT_CRITERIA)
         else:
             norm = cv2.undistortPoints(uv, self.camera.K, None)
-        norm = norm.reshape(-1, 2)
-        rays = np.c_[norm, np.ones(len(norm))] @ self._R.T
+        rays = norm.reshape(-1, 2) @ self._R[:, :2].T + self._R[:, 2]  # R @ (x, y, 1)
         return rays[:, :2] / -rays[:, 2:3]
 
     def points(self, uv: np.ndarray, height: np.ndarray | float) -> np.ndarray:

@@ -47,7 +47,7 @@ _GOOD_FIT = 4.0  # scores up to this are a good fit: the confidence is the share
 _MAX_HOLE_Z2 = 9.0  # a hole fraction off by more than 3 sigma: not that kind
 _MID = 0.0025  # m: the edge height of the classifying footprint
 _HOPELESS = 30.0  # a mid-height score above this for every kind: no kind near, not refined
-_REFINE_GAP = 12.0  # a runner-up this much worse at mid height is not refined
+_REFINE_GAP = 4.0  # a runner-up this much worse at mid height is not refined
 
 
 def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:

@@ -18,7 +18,7 @@ best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
    largest region after a 3x3 opening seeds a piece. Tried last, on the blob itself.
 
 A piece that fits no kind and is large enough to hold two parts is cut again (chains of
-up to three parts); the whole search tries at most 24 cuts per blob and keeps the best.
+up to three parts); the whole search tries at most 40 cuts per blob and keeps the best.
 """
 
 from __future__ import annotations
@@ -40,7 +40,8 @@ __all__ = ["Piece", "split_blob"]
 _GOOD = 6.0  # mean piece score at which a cut is taken without trying more
 _ACCEPT = 9.0  # a piece (or a cut, on average) scoring worse fits no kind
 _MIN_PAIR_MM2 = 200.0  # two parts cover at least this (mm^2): a smaller piece is not cut
-_BUDGET = 24  # cuts tried per blob, all depths together
+_BUDGET = 40  # cuts tried per blob, all depths together
+_MAX_DEPTH = 1  # pieces of pieces: chains of up to three parts
 _MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest is 11 mm)
 _BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better
 _MIN_NOTCH_PX = 2.0  # a convexity defect at least this deep (px) may be a contact
@@ -116,7 +117,7 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
         blob = max(found, key=lambda b: b.area)
         fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
         if fit.kind == "unknown" or fit.score >= _ACCEPT:
-            if depth >= 1 or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
+            if depth >= _MAX_DEPTH or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
                 return []
             cost, sub = _best_cut(blob.pixels, search, depth=depth + 1)
             if cost >= _ACCEPT:

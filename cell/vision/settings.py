@@ -50,13 +50,13 @@ class VisionSettings:
         doc="belt segmentation: the threshold in noise multiples (MAD) above the median difference"
     )
     smooth: int = setting(
-        5, lo=0, hi=15,
-        doc="aperture of the filter applied to a noisy frame before differencing (px, odd; "
+        3, lo=0, hi=15,
+        doc="aperture of the Gaussian applied to a noisy frame before differencing (px, odd; "
         "0 = off)",
     )
     smooth_sigma: float = setting(
-        1.0, lo=0.0, hi=5.0,
-        doc="Gaussian sigma of that noisy-frame filter (px; 0: from the aperture)",
+        0.0, lo=0.0, hi=5.0,
+        doc="sigma of that Gaussian (px; 0: from the aperture, as cv2.GaussianBlur: 0.8 for 3)",
     )
     edge_level: float = setting(
         0.3, lo=0.05, hi=0.95,

@@ -7,7 +7,7 @@ difference image is the largest channel difference from that belt (grey levels),
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
 difference, at least ``belt_floor``); the outline step then re-thresholds each blob in
-its own box. A noisy frame (a difference MAD over 2 grey levels) is smoothed by a 5x5
+its own box. A noisy frame (a difference MAD over 2 grey levels) is smoothed by a 3x3
 Gaussian first. A bright, colourless belt is a light table (``backlit``).
 
 The textbook methods threshold the grey image instead, with the syllabus functions of

@@ -99,27 +99,21 @@ class PartDetector:
         min_px = st.min_area_mm2 * 1e-6 / plane.m_per_px**2
         blobs = find_outlines(fg, st, min_px=min_px,                         # step 2
                               max_px=2.5 * _LONGEST / plane.m_per_px)
-        pieces = []
-        for blob in blobs:
-            if blob.partial:
-                pieces += _partial(blob, plane, st)
-            else:
-                pieces += self._parts(blob, fit_kind(blob, plane, min_confidence=st.min_kind_confidence),
-                                      fg, plane)  # steps 3, 4
+        pieces = [p for blob in blobs for p in self._parts(blob, fg, plane)]   # steps 3, 4
         pieces.sort(key=lambda p: p.blob.centroid)
-        parts_mask = np.zeros(image.shape[:2], np.uint8)
-        for p in pieces:
-            px = p.blob.pixels
-            h, w = px.mask.shape
-            parts_mask[px.y0:px.y0 + h, px.x0:px.x0 + w] |= px.mask
-        materials = part_materials(image, parts_mask, [p.blob.pixels for p in pieces],  # step 5
-                                   settings=st, backlit=fg.backlit)
-        return [_detection(i, p, m) for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]
+        materials = part_materials(image, _own_pixels(image.shape[:2], pieces),  # step 5
+                                   [p.blob.pixels for p in pieces], settings=st, backlit=fg.backlit)
+        return [_detection(i, p, m)                                             # step 6
+                for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]
 
-    def _parts(self, blob: Outline, fit: KindFit, fg: Foreground, plane: TablePlane) -> list[Piece]:
-        """The part(s) in a whole blob: itself when a kind fits it well; its pieces when
-        it is touching parts; none when it is not a part."""
+    def _parts(self, blob: Outline, fg: Foreground, plane: TablePlane) -> list[Piece]:
+        """The part(s) in a blob: itself when a kind fits it well; its pieces when it is
+        touching parts; none when it is not a part. A blob at the image border is one
+        part of kind ``unknown`` (:func:`_partial`)."""
         st = self.settings
+        if blob.partial:
+            return _partial(blob, plane, st)
+        fit = fit_kind(blob, plane, min_confidence=st.min_kind_confidence)
         if fit.kind != "unknown" and fit.score < _WELL:
             return [Piece(blob, fit)]
         if fit.kind == "unknown" and _faint(blob, fg, st.faint_contrast):
@@ -134,6 +128,17 @@ class PartDetector:
                 or fp.length > 1.3 * _LONGEST or fp.width < _NARROWEST):
             return []  # like no kind at all, larger than two parts, or a strip: no part
         return [Piece(blob, fit)]  # one part (``unknown`` when it fits its kind too poorly)
+
+
+def _own_pixels(shape: tuple[int, int], pieces: list[Piece]) -> np.ndarray:
+    """uint8 (H, W): 255 on every piece's own pixels (the rest is belt, for the material
+    step's white balance)."""
+    out = np.zeros(shape, np.uint8)
+    for p in pieces:
+        px = p.blob.pixels
+        h, w = px.mask.shape
+        out[px.y0:px.y0 + h, px.x0:px.x0 + w] |= px.mask
+    return out
 
 
 def _check_frame(image: np.ndarray, camera: CameraModel) -> None:

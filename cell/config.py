@@ -7,6 +7,10 @@ checking every key, type, range and choice; :func:`apply_override` parses one
 ``key=value`` string (dotted keys for sections). Every failure is a ``ScenarioError``
 whose message names the key and where it came from (a file or ``--set``).
 
+Numbers must be finite (NaN and infinity are rejected, as is an integer too large for a
+float) and strings printable. Anything a user wrote that a message echoes (a key, a value,
+a file name) is shown through :func:`escape`, so no message can carry terminal escapes.
+
 Supported field types: ``bool``, ``int``, ``float``, ``str``, ``tuple[float, ...]``,
 ``tuple[int, ...]``, ``tuple[str, ...]`` and nested settings dataclasses.
 """
@@ -14,13 +18,21 @@ Supported field types: ``bool``, ``int``, ``float``, ``str``, ``tuple[float, ...
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 import typing
 from typing import Any
 
 from cell.errors import ScenarioError
 
-__all__ = ["apply_override", "build", "describe", "setting", "to_dict"]
+__all__ = [
+    "apply_override", "build", "describe", "escape", "override_source", "setting", "show", "to_dict",
+]
+
+_SHOW_MAX = 80  # characters of a value echoed in a message
+_SOURCE_MAX = 100  # characters of a --set assignment echoed as the source of an error
+_SHOW_DIGITS = 40  # an integer with more digits is shown by its length
+_ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
 
 def setting(
@@ -50,6 +62,74 @@ def setting(
     return dataclasses.field(default=default, metadata=meta)
 
 
+def escape(text: str) -> str:
+    """``text`` with every non-printable character written as a Python escape.
+
+    ``"a\\x1b[2J"`` for an ESC, ``\\n`` for a newline: safe to print in a terminal. Printable
+    text (backslashes included) is unchanged, so escaping twice changes nothing.
+    """
+    return "".join(c if c.isprintable() else _escape_char(c) for c in text)
+
+
+def _escape_char(c: str) -> str:
+    code = ord(c)
+    if c in _ESCAPES:
+        return _ESCAPES[c]
+    if code < 0x100:
+        return f"\\x{code:02x}"
+    if code < 0x10000:
+        return f"\\u{code:04x}"
+    return f"\\U{code:08x}"
+
+
+def _digits(n: int) -> int:
+    """Decimal digits of ``abs(n)``, without converting it to text (which fails past 4300)."""
+    n = abs(n)
+    if n < 10:
+        return 1
+    d = int((n.bit_length() - 1) * math.log10(2)) + 1
+    return d + 1 if n >= 10**d else d
+
+
+def _summary(value: Any) -> str | None:
+    """What to show instead of a ``repr`` that would be too long or would fail, else None."""
+    if isinstance(value, int) and not isinstance(value, bool) and _digits(value) > _SHOW_DIGITS:
+        return f"an integer of {_digits(value)} digits"
+    try:
+        repr(value)
+    except (ValueError, RecursionError):  # holds an integer too long to print, or too deep
+        return f"a {type(value).__name__} too large to show"
+    return None
+
+
+def show(value: Any) -> str:
+    """A short, printable rendering of a user's value for an error message.
+
+    An integer of more than 40 digits is shown by its length; anything else by its
+    ``repr``, escaped and cut to 80 characters.
+    """
+    summary = _summary(value)
+    if summary is not None:
+        return summary
+    text = escape(repr(value))
+    return text if len(text) <= _SHOW_MAX else text[: _SHOW_MAX - 3] + "..."
+
+
+def override_source(assignment: str) -> str:
+    """How a ``--set`` assignment is named in messages: escaped, cut to 100 characters."""
+    text = escape(assignment)
+    return "--set " + (text if len(text) <= _SOURCE_MAX else text[: _SOURCE_MAX - 3] + "...")
+
+
+def _got(value: Any) -> str:
+    summary = _summary(value)
+    return summary if summary is not None else f"{type(value).__name__} {show(value)}"
+
+
+def _key_text(key: Any) -> str:
+    return escape(key) if isinstance(key, str) else show(key)
+
+
 def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
@@ -60,7 +140,32 @@ def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
-def _coerce_scalar(value: Any, tp: type, key: str, where: str) -> Any:
+def _range_text(meta: dict[str, Any]) -> str:
+    return f"[{meta.get('lo')}, {meta.get('hi')}]"
+
+
+def _finite_float(value: int | float, meta: dict[str, Any], key: str, where: str) -> float:
+    try:
+        number = float(value)
+    except OverflowError:  # an int beyond the largest float
+        raise ScenarioError(
+            f"{where}: key '{key}' = {show(value)} is out of range {_range_text(meta)}"
+        ) from None
+    if not math.isfinite(number):
+        raise ScenarioError(f"{where}: key '{key}' must be a finite number, got {show(value)}")
+    return number
+
+
+def _printable(value: str, key: str, where: str) -> str:
+    if not value.isprintable():
+        raise ScenarioError(
+            f"{where}: key '{key}' must contain printable characters only (no control "
+            f"characters, tabs or newlines), got {show(value)}"
+        )
+    return value
+
+
+def _coerce_scalar(value: Any, tp: type, meta: dict[str, Any], key: str, where: str) -> Any:
     ok = False
     if tp is bool:
         ok = isinstance(value, bool)
@@ -68,13 +173,12 @@ def _coerce_scalar(value: Any, tp: type, key: str, where: str) -> Any:
         ok = isinstance(value, int) and not isinstance(value, bool)
     elif tp is float:
         ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        value = float(value) if ok else value
+        value = _finite_float(value, meta, key, where) if ok else value
     elif tp is str:
         ok = isinstance(value, str)
+        value = _printable(value, key, where) if ok else value
     if not ok:
-        raise ScenarioError(
-            f"{where}: key '{key}' must be {_type_name(tp)}, got {type(value).__name__} {value!r}"
-        )
+        raise ScenarioError(f"{where}: key '{key}' must be {_type_name(tp)}, got {_got(value)}")
     return value
 
 
@@ -87,11 +191,13 @@ def _check_value(value: Any, meta: dict[str, Any], key: str, where: str) -> None
     for item in items:
         if meta.get("choices") is not None and item not in meta["choices"]:
             valid = ", ".join(str(c) for c in meta["choices"])
-            raise ScenarioError(f"{where}: key '{key}' has invalid value {item!r}; valid: {valid}")
+            raise ScenarioError(
+                f"{where}: key '{key}' has invalid value {show(item)}; valid: {valid}"
+            )
         lo, hi = meta.get("lo"), meta.get("hi")
         if (lo is not None and item < lo) or (hi is not None and item > hi):
             raise ScenarioError(
-                f"{where}: key '{key}' = {item!r} is out of range [{lo}, {hi}]"
+                f"{where}: key '{key}' = {show(item)} is out of range {_range_text(meta)}"
             )
 
 
@@ -99,12 +205,10 @@ def _coerce(value: Any, tp: Any, meta: dict[str, Any], key: str, where: str) -> 
     if typing.get_origin(tp) is tuple:
         elem = typing.get_args(tp)[0]
         if not isinstance(value, (list, tuple)):
-            raise ScenarioError(
-                f"{where}: key '{key}' must be {_type_name(tp)}, got {type(value).__name__} {value!r}"
-            )
-        out = tuple(_coerce_scalar(v, elem, key, where) for v in value)
+            raise ScenarioError(f"{where}: key '{key}' must be {_type_name(tp)}, got {_got(value)}")
+        out = tuple(_coerce_scalar(v, elem, meta, key, where) for v in value)
     else:
-        out = _coerce_scalar(value, tp, key, where)
+        out = _coerce_scalar(value, tp, meta, key, where)
     _check_value(out, meta, key, where)
     return out
 
@@ -112,17 +216,20 @@ def _coerce(value: Any, tp: Any, meta: dict[str, Any], key: str, where: str) -> 
 def build(cls: type, data: dict[str, Any], *, where: str, prefix: str = "") -> Any:
     """Validate ``data`` (a nested dict) into the settings dataclass ``cls``.
 
-    ``where`` names the source (a file path) in error messages; ``prefix`` is the dotted
-    path of ``cls`` inside the scenario. Missing keys take their defaults.
+    ``where`` names the source (a file path) in error messages, escaped; ``prefix`` is the
+    dotted path of ``cls`` inside the scenario. Missing keys take their defaults.
     """
+    where = escape(where)
     if not isinstance(data, dict):
         raise ScenarioError(f"{where}: section '{prefix.rstrip('.')}' must be a table")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     hints = _hints(cls)
-    unknown = sorted(set(data) - set(fields))
+    unknown = sorted((k for k in data if k not in fields), key=_key_text)
     if unknown:
         valid = ", ".join(prefix + name for name in fields)
-        raise ScenarioError(f"{where}: unknown key '{prefix}{unknown[0]}'; valid keys: {valid}")
+        raise ScenarioError(
+            f"{where}: unknown key '{prefix}{_key_text(unknown[0])}'; valid keys: {valid}"
+        )
     kwargs = {}
     for name, value in data.items():
         tp = hints[name]
@@ -138,11 +245,15 @@ def build(cls: type, data: dict[str, Any], *, where: str, prefix: str = "") -> A
     return obj
 
 
-def _parse_value(text: str) -> Any:
+def _parse_value(text: str, key: str, where: str) -> Any:
     try:
-        return tomllib.loads(f"v = {text}")["v"]
+        parsed = tomllib.loads(f"v = {text}")
     except tomllib.TOMLDecodeError:
         return text  # a bare word: a string such as `lighting=back`
+    except RecursionError:
+        raise ScenarioError(f"{where}: key '{key}': value nested too deeply") from None
+    # `1\nname = "x"` would smuggle in a second key: such text is a (bad) string, not TOML
+    return parsed["v"] if set(parsed) == {"v"} else text
 
 
 def apply_override(data: dict[str, Any], assignment: str, cls: type) -> dict[str, Any]:
@@ -151,34 +262,35 @@ def apply_override(data: dict[str, Any], assignment: str, cls: type) -> dict[str
     The value is read as a TOML value (``3``, ``0.2``, ``true``, ``[1, 2]``, ``"x"``); a
     bare word that is not TOML is taken as a string. The key is checked against ``cls``.
     """
-    where = f"--set {assignment}"
+    where = override_source(assignment)
     if "=" not in assignment:
         raise ScenarioError(f"{where}: expected key=value, e.g. --set parts.count=5")
     key, _, text = assignment.partition("=")
     key = key.strip()
     parts = key.split(".")
-    out = _deep_copy(data)
+    out = dict(data)  # copied along the key's path only: the rest is not modified
     node, node_cls, prefix = out, cls, ""
     for i, name in enumerate(parts):
         fields = {f.name for f in dataclasses.fields(node_cls)}
         if name not in fields:
             valid = ", ".join(prefix + f for f in sorted(fields))
-            raise ScenarioError(f"{where}: unknown key '{prefix}{name}'; valid keys: {valid}")
+            raise ScenarioError(
+                f"{where}: unknown key '{prefix}{escape(name)}'; valid keys: {valid}"
+            )
         tp = _hints(node_cls)[name]
         if i == len(parts) - 1:
             if dataclasses.is_dataclass(tp):
-                raise ScenarioError(f"{where}: '{key}' is a section; set one of its keys")
-            node[name] = _parse_value(text.strip())
+                raise ScenarioError(f"{where}: key '{prefix}{name}' is a section; set one of its keys")
+            node[name] = _parse_value(text.strip(), prefix + name, where)
         else:
             if not dataclasses.is_dataclass(tp):
-                raise ScenarioError(f"{where}: '{prefix}{name}' is not a section")
-            node = node.setdefault(name, {})
+                raise ScenarioError(f"{where}: key '{prefix}{name}' is not a section")
+            child = node.get(name, {})
+            if not isinstance(child, dict):
+                raise ScenarioError(f"{where}: section '{prefix}{name}' must be a table")
+            node[name] = node = dict(child)
             node_cls, prefix = tp, prefix + name + "."
     return out
-
-
-def _deep_copy(data: dict[str, Any]) -> dict[str, Any]:
-    return {k: _deep_copy(v) if isinstance(v, dict) else v for k, v in data.items()}
 
 
 def to_dict(obj: Any) -> dict[str, Any]:

@@ -1,7 +1,9 @@
 """Scenarios: one TOML file, validated into a frozen ``Scenario`` dataclass.
 
 Every field has a default, so an empty file is a valid scenario. An unknown key, a wrong
-type or an out-of-range value raises ``ScenarioError`` naming the key and the file.
+type, an out-of-range or non-finite number or a string with control characters raises
+``ScenarioError`` naming the key and the file; so does a file that cannot be read, is not
+UTF-8 (a leading byte-order mark is accepted) or is larger than 1 MiB.
 ``--set key=value`` overrides (dotted keys for sections) are applied after the file.
 
 Example::
@@ -19,13 +21,14 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
-from cell.config import apply_override, build, setting
+from cell.config import apply_override, build, escape, override_source, setting, show
 from cell.errors import ScenarioError
 from cell.robot.settings import RobotSettings
 from cell.vision.settings import VisionSettings
@@ -39,6 +42,8 @@ __all__ = [
     "load_scenario",
     "scenario_from_dict",
 ]
+
+MAX_SCENARIO_BYTES = 1 << 20  # a scenario is a page of TOML; more is a wrong file
 
 
 @dataclass(frozen=True)
@@ -90,7 +95,7 @@ class SensorSettings:
 
 @dataclass(frozen=True)
 class Scenario:
-    name: str = setting("scenario", doc="a name for reports")
+    name: str = setting("scenario", doc="a name for reports (printable characters only)")
     seed: int = setting(0, lo=0, hi=2**63 - 1, doc="seed of the run's random generator")
     lighting: str = setting("front", choices=tuple(LIGHTING_PRESETS), doc="lighting preset")
     parts: PartsSettings = setting(PartsSettings())
@@ -108,8 +113,40 @@ def scenario_from_dict(
     scenario = build(Scenario, data, where=where)
     for assignment in overrides:  # validated one by one so an error names its --set
         data = apply_override(data, assignment, Scenario)
-        scenario = build(Scenario, data, where=f"--set {assignment}")
+        scenario = build(Scenario, data, where=override_source(assignment))
     return scenario
+
+
+def _read_text(path: Path, shown: str) -> str:
+    """The file's text (UTF-8, a leading BOM dropped), or a ``ScenarioError`` naming it."""
+    try:
+        with path.open("rb") as f:
+            data = f.read(MAX_SCENARIO_BYTES + 1)
+    except FileNotFoundError:
+        raise ScenarioError(f"{shown}: no such scenario file") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{shown}: is a directory, not a scenario file") from None
+    except OSError as exc:
+        reason = escape(exc.strerror or str(exc))
+        raise ScenarioError(f"{shown}: cannot read the scenario file: {reason}") from None
+    if len(data) > MAX_SCENARIO_BYTES:
+        raise ScenarioError(f"{shown}: larger than 1 MiB; not a scenario file")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"{shown}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+            "save the scenario as UTF-8"
+        ) from None
+
+
+def _parse_toml(text: str, shown: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{shown}: not valid TOML: {escape(str(exc))}") from None
+    except RecursionError:
+        raise ScenarioError(f"{shown}: not valid TOML: arrays or tables nested too deeply") from None
 
 
 def load_scenario(
@@ -117,15 +154,14 @@ def load_scenario(
 ) -> Scenario:
     """Read a scenario TOML file, apply ``--set`` overrides and an optional seed.
 
-    Raises ``ScenarioError`` naming the file and key for any invalid input.
+    Raises ``ScenarioError`` naming the file (escaped) and key for any invalid input; an
+    invalid ``seed`` is reported as ``--seed``.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such scenario file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
-    if seed is not None:
-        overrides = [*overrides, f"seed={seed}"]
-    return scenario_from_dict(data, where=str(path), overrides=overrides)
+    shown = escape(str(path))
+    data = _parse_toml(_read_text(path, shown), shown)
+    scenario = scenario_from_dict(data, where=shown, overrides=overrides)
+    if seed is None:
+        return scenario
+    checked = build(Scenario, {"seed": seed}, where=f"--seed {show(seed)}")
+    return dataclasses.replace(scenario, seed=checked.seed)

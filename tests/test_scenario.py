@@ -72,3 +72,215 @@ def test_bad_override_names_the_override():
 def test_missing_file_is_a_scenario_error(tmp_path):
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario(tmp_path / "nope.toml")
+
+
+# --- issue #12: hardening -------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "assignment",
+    [
+        "conveyor.speed=nan",
+        "conveyor.speed=inf",
+        "sensor.noise_std=nan",
+        "sensor.distortion=[nan, 0, 0, 0, 0]",
+        "sensor.distortion=[0, 0, 0, 0, -inf]",
+        "vision.belt_rgb=[0.2, nan, 0.3]",
+        "vision.plane_z=nan",
+        "vision.albedo_sigma=nan",
+        "robot.max_joint_speed=+nan",
+    ],
+)
+def test_non_finite_override_is_rejected_naming_the_key(assignment):
+    key = assignment.partition("=")[0]
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict({}, overrides=[assignment])
+    assert str(info.value).startswith(f"--set {assignment}: key '{key}' must be a finite number")
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ("[conveyor]\nspeed = nan\n", "conveyor.speed"),
+        ("[sensor]\nnoise_std = -inf\n", "sensor.noise_std"),
+        ("[sensor]\ndistortion = [0.0, nan, 0.0, 0.0, 0.0]\n", "sensor.distortion"),
+        ("[vision]\nbelt_rgb = [0.2, 0.3, nan]\n", "vision.belt_rgb"),
+    ],
+)
+def test_non_finite_value_in_a_file_is_rejected_naming_key_and_file(tmp_path, text, key):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(f)
+    assert f"{f}: key '{key}' must be a finite number" in str(info.value)
+
+
+def test_huge_integer_for_a_float_key_is_out_of_range():
+    with pytest.raises(ScenarioError, match=r"key 'conveyor\.speed' .*out of range") as info:
+        scenario_from_dict({}, overrides=["conveyor.speed=" + "9" * 401])
+    assert len(str(info.value)) < 250  # the echoed --set is cut, not 401 digits long
+    with pytest.raises(ScenarioError, match=r"key 'vision\.plane_z' .*out of range"):
+        scenario_from_dict({"vision": {"plane_z": -(10**400)}})
+
+
+def test_integer_too_long_to_print_is_abbreviated_in_the_message():
+    with pytest.raises(ScenarioError, match=r"key 'parts\.count' = an integer of 5001 digits"):
+        scenario_from_dict({"parts": {"count": 10**5000}})
+    with pytest.raises(ScenarioError, match=r"key 'name' must be str, got an integer of 5001 digits"):
+        scenario_from_dict({"name": 10**5000})
+
+
+def test_directory_as_scenario_is_a_scenario_error(tmp_path):
+    with pytest.raises(ScenarioError, match="is a directory, not a scenario file") as info:
+        load_scenario(tmp_path)
+    assert str(info.value).startswith(f"{tmp_path}:")
+
+
+@pytest.mark.parametrize(
+    "data",
+    [b'name = "caf\xe9"\n', b"\x00\xff\xfe\x89PNG\r\n\x1a\n", b"seed = 1\n\xc3"],
+    ids=["latin1", "binary", "truncated-utf8"],
+)
+def test_file_that_is_not_utf8_is_a_scenario_error(tmp_path, data):
+    f = tmp_path / "s.toml"
+    f.write_bytes(data)
+    with pytest.raises(ScenarioError, match=r"not UTF-8 text") as info:
+        load_scenario(f)
+    assert str(info.value).startswith(f"{f}:")
+
+
+def test_unreadable_file_is_a_scenario_error(tmp_path, monkeypatch):
+    f = tmp_path / "s.toml"
+    f.write_text("seed = 1\n")
+    real_open = Path.open
+
+    def deny(self, *args, **kwargs):
+        if self == f:
+            raise PermissionError(13, "Permission denied", str(self))
+        return real_open(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "open", deny)
+    with pytest.raises(ScenarioError, match=r"cannot read the scenario file: Permission denied"):
+        load_scenario(f)
+
+
+def test_utf8_bom_is_accepted(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_bytes(b"\xef\xbb\xbfseed = 3\n")
+    assert load_scenario(f).seed == 3
+
+
+def test_oversized_file_is_a_scenario_error(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("# padding\n" * 200_000)
+    with pytest.raises(ScenarioError, match=r"larger than 1 MiB"):
+        load_scenario(f)
+
+
+def test_deeply_nested_toml_is_a_scenario_error(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("seed = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(ScenarioError, match="nested too deeply"):
+        load_scenario(f)
+    with pytest.raises(ScenarioError, match="seed"):
+        scenario_from_dict({}, overrides=["seed=" + "[" * 5000 + "]" * 5000])
+
+
+@pytest.mark.parametrize(
+    ("text", "escaped"),
+    [
+        ('name = "a\\u001b]0;pwned\\u0007b"\n', r"a\x1b]0;pwned\x07b"),
+        ('name = "line\\nfake: ok"\n', r"line\nfake: ok"),
+        ('lighting = "\\u001b[2J"\n', r"\x1b[2J"),
+        ('"bad\\u001b[31mkey" = 1\n', r"bad\x1b[31mkey"),
+        ('[parts]\nkinds = ["washer", "\\u009b2J"]\n', r"\x9b2J"),
+    ],
+)
+def test_control_characters_are_rejected_and_shown_escaped(tmp_path, text, escaped):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(f)
+    message = str(info.value)
+    assert message.isprintable()
+    assert escaped in message
+
+
+def test_name_must_be_printable_naming_the_key():
+    with pytest.raises(ScenarioError, match=r"key 'name' must contain printable characters only"):
+        scenario_from_dict({"name": "ok\tnot"})
+    assert scenario_from_dict({"name": "Sortierung – Linie 3"}).name == "Sortierung – Linie 3"
+
+
+def test_file_name_and_override_are_shown_escaped(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(tmp_path / "a\x1b[2Jb.toml")
+    assert info.value.args[0].isprintable() and r"a\x1b[2Jb.toml" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict({}, overrides=["lighting=\x1b[2J"])
+    assert str(info.value).isprintable() and r"--set lighting=\x1b[2J" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict({}, overrides=["par\x07ts.count=3"])
+    assert str(info.value).isprintable() and r"unknown key 'par\x07ts'" in str(info.value)
+
+
+def test_override_value_cannot_smuggle_a_second_key():
+    with pytest.raises(ScenarioError, match=r"key 'seed' must be int"):
+        scenario_from_dict({}, overrides=["seed=1\nname='x'"])
+
+
+def test_non_string_keys_and_non_table_sections_are_scenario_errors():
+    with pytest.raises(ScenarioError, match="unknown key '1'"):
+        scenario_from_dict({1: 2, "seed": 3})
+    with pytest.raises(ScenarioError, match="section 'parts' must be a table"):
+        from cell.config import apply_override
+
+        apply_override({"parts": 3}, "parts.count=5", Scenario)
+
+
+_CLI_CASES = {
+    "dir": (["snapshot", "{dir}", "--out", "{dir}/out"], "is a directory"),
+    "latin1": (["snapshot", "{dir}/latin1.toml", "--out", "{dir}/out"], "not UTF-8 text"),
+    "missing": (["snapshot", "{dir}/missing.toml", "--out", "{dir}/out"], "no such scenario file"),
+    "speed-nan": (["snapshot", "{dir}/ok.toml", "--set", "conveyor.speed=nan", "--out",
+                   "{dir}/out"], "key 'conveyor.speed' must be a finite number"),
+    "noise-nan": (["snapshot", "{dir}/ok.toml", "--set", "sensor.noise_std=nan", "--out",
+                   "{dir}/out"], "key 'sensor.noise_std' must be a finite number"),
+    "distortion-nan": (["snapshot", "{dir}/ok.toml", "--set", "sensor.distortion=[nan,0,0,0,0]",
+                        "--out", "{dir}/out"], "key 'sensor.distortion' must be a finite number"),
+    "huge-int": (["snapshot", "{dir}/ok.toml", "--set", "conveyor.speed=" + "9" * 401, "--out",
+                  "{dir}/out"], "key 'conveyor.speed' = an integer of 401 digits is out of range"),
+    "detect-plane_z-nan": (["detect", "img.png", "--camera", "camera.json", "--set",
+                            "plane_z=nan"], "key 'vision.plane_z' must be a finite number"),
+    "detect-albedo-nan": (["detect", "img.png", "--camera", "camera.json", "--set",
+                           "albedo_sigma=nan", "--json"],
+                          "key 'vision.albedo_sigma' must be a finite number"),
+    "detect-dir": (["detect", "img.png", "--camera", "camera.json", "--scenario", "{dir}"],
+                   "is a directory"),
+    "detect-latin1": (["detect", "img.png", "--camera", "camera.json", "--scenario",
+                       "{dir}/latin1.toml"], "not UTF-8 text"),
+}
+
+
+@pytest.mark.parametrize(("argv", "needle"), list(_CLI_CASES.values()), ids=list(_CLI_CASES))
+def test_cli_reports_one_line_naming_the_cause_and_exits_2(tmp_path, capsys, argv, needle):
+    from cell.cli import main
+
+    (tmp_path / "latin1.toml").write_bytes(b'name = "caf\xe9"\n')
+    (tmp_path / "ok.toml").write_text("seed = 1\n")
+    rc = main([a.format(dir=tmp_path) for a in argv])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and err.startswith(f"cell {argv[0]}: error: ")
+    assert needle in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_seed_argument_is_reported_as_seed_not_set(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("seed = 4\n")
+    with pytest.raises(ScenarioError, match=r"^--seed -5: key 'seed' = -5 is out of range"):
+        load_scenario(f, seed=-5)
+    assert load_scenario(f, overrides=["seed=7"], seed=11).seed == 11
+    with pytest.raises(ScenarioError, match=r"^--seed an integer of 5001 digits: key 'seed'"):
+        load_scenario(f, seed=10**5000)

@@ -3,19 +3,33 @@
 The same model describes the simulator's true camera, a calibrated one and a user's own
 (``camera.json``). Axes follow OpenCV: x right, y down, z forward (out of the lens).
 Units: pixels for ``K``, metres for the translation of ``T_world_camera``.
+
+Every model is checked when it is made, whether in code, by :meth:`CameraModel.from_dict`
+or by :meth:`CameraModel.load`: all values finite; ``width`` and ``height`` integers in
+1..``MAX_SIDE``; ``K`` upper triangular with fx, fy > 0 and bottom row [0, 0, 1];
+``dist`` five numbers; ``T_world_camera`` a rigid transform: its rotation orthonormal
+with determinant +1 and its bottom row [0, 0, 0, 1], each within ``TOLERANCE``. A
+failure is a ``CalibrationError`` naming the field (and the file, when loading).
 """
 
 from __future__ import annotations
 
 import json
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from cell.errors import CellError
+from cell.errors import CalibrationError
 
-__all__ = ["CameraModel"]
+__all__ = ["MAX_FILE_BYTES", "MAX_SIDE", "TOLERANCE", "CameraModel"]
+
+TOLERANCE = 1e-6  # absolute: |R^T R - I|, |det R - 1| and the fixed rows of K and T
+MAX_SIDE = 1 << 16  # pixels: the largest width or height of a camera model
+MAX_FILE_BYTES = 1 << 20  # a camera.json larger than this is no camera file
+_REQUIRED = ("width", "height", "K", "T_world_camera")  # "dist" is optional (zeros)
+_K_ROLES = {(0, 0): "fx", (1, 1): "fy", (0, 2): "cx", (1, 2): "cy", (0, 1): "skew"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -23,7 +37,8 @@ class CameraModel:
     """Intrinsics ``K`` (3x3), distortion ``dist`` (k1, k2, p1, p2, k3) and pose.
 
     ``T_world_camera`` (4x4) maps points from camera coordinates to world coordinates.
-    ``width`` and ``height`` are the image size in pixels.
+    ``width`` and ``height`` are the image size in pixels. Invalid values raise a
+    ``CalibrationError`` naming the field (see the module docstring for the rules).
     """
 
     width: int
@@ -33,20 +48,12 @@ class CameraModel:
     T_world_camera: np.ndarray
 
     def __post_init__(self) -> None:
-        K = np.asarray(self.K, dtype=np.float64)
-        dist = np.asarray(self.dist, dtype=np.float64).reshape(-1)
-        T = np.asarray(self.T_world_camera, dtype=np.float64)
-        if K.shape != (3, 3):
-            raise CellError(f"CameraModel: K must be 3x3, got shape {K.shape}")
-        if dist.shape != (5,):
-            raise CellError(f"CameraModel: dist must have 5 elements, got {dist.shape[0]}")
-        if T.shape != (4, 4):
-            raise CellError(f"CameraModel: T_world_camera must be 4x4, got shape {T.shape}")
-        if self.width <= 0 or self.height <= 0:
-            raise CellError(f"CameraModel: size must be positive, got {self.width}x{self.height}")
-        object.__setattr__(self, "K", K)
-        object.__setattr__(self, "dist", dist)
-        object.__setattr__(self, "T_world_camera", T)
+        try:
+            fields = _checked(self.width, self.height, self.K, self.dist, self.T_world_camera)
+        except CalibrationError as exc:
+            raise CalibrationError(f"CameraModel: {exc}") from None
+        for name, value in zip(("width", "height", "K", "dist", "T_world_camera"), fields, strict=True):
+            object.__setattr__(self, name, value)
 
     @property
     def T_camera_world(self) -> np.ndarray:
@@ -90,28 +97,179 @@ class CameraModel:
 
     def save(self, path: str | Path) -> None:
         """Write the model as ``camera.json``."""
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+
+    @classmethod
+    def from_dict(cls, data: object, *, where: str = "camera model") -> CameraModel:
+        """A model from the ``camera.json`` layout (``dist`` optional, zeros by default).
+
+        Any invalid content is a ``CalibrationError`` that starts with ``where`` and names
+        the field. Extra keys are ignored.
+        """
+        try:
+            fields = _checked(*_fields(data))
+        except CalibrationError as exc:
+            raise CalibrationError(f"{where}: {exc}") from None
+        return cls(*fields)
 
     @classmethod
     def load(cls, path: str | Path) -> CameraModel:
-        """Read a ``camera.json``; a missing key or bad shape is a ``CellError`` naming it."""
+        """Read a ``camera.json``: a ``CalibrationError`` naming the file (escaped) and
+        the field for an unreadable file or any invalid content."""
         path = Path(path)
+        where = f"camera file {str(path)!r}"
+        return cls.from_dict(_read_json(path, where), where=where)
+
+
+def _read_json(path: Path, where: str) -> object:
+    """The JSON value in ``path``; ``where`` starts every error message."""
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise CalibrationError(f"no such camera file: {str(path)!r}") from None
+    except OSError as exc:
+        raise CalibrationError(f"{where}: cannot read it ({exc.strerror})") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise CalibrationError(f"{where}: is a directory, not a JSON file")
+    if not stat.S_ISREG(info.st_mode):
+        raise CalibrationError(f"{where}: not a regular file")
+    if info.st_size > MAX_FILE_BYTES:
+        raise CalibrationError(f"{where}: {info.st_size} bytes, too large for a camera file "
+                               f"(at most {MAX_FILE_BYTES})")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise CalibrationError(f"{where}: cannot read it ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise CalibrationError(f"{where}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
+                               f"{exc.start}); expected JSON") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CalibrationError(f"{where}: not valid JSON: {exc.msg} (line {exc.lineno}, "
+                               f"column {exc.colno})") from None
+    except (ValueError, RecursionError) as exc:  # a 5000-digit number, [[[[...]]]] nested too deep
+        raise CalibrationError(f"{where}: not valid JSON: {_brief(str(exc), 80)}") from None
+
+
+def _fields(data: object) -> tuple:
+    """width, height, K, dist, T_world_camera out of a ``camera.json`` value."""
+    if not isinstance(data, dict):
+        raise CalibrationError(f"expected a JSON object with keys {', '.join(_REQUIRED)} (and dist), "
+                               f"got {_json_type(data)}")
+    missing = [k for k in _REQUIRED if k not in data]
+    if missing:
+        raise CalibrationError(f"missing key '{missing[0]}' (need {', '.join(_REQUIRED)}; dist optional)")
+    return data["width"], data["height"], data["K"], data.get("dist", [0.0] * 5), data["T_world_camera"]
+
+
+def _checked(width: object, height: object, K: object, dist: object, T: object) -> tuple:
+    """The five fields, checked and converted (int, int, float64 arrays)."""
+    width, height = _side("width", width), _side("height", height)
+    K = _array("K", K, (3, 3))
+    dist = _array("dist", dist, (5,))
+    T = _array("T_world_camera", T, (4, 4))
+    _check_intrinsics(K)
+    _check_pose(T)
+    return width, height, K, dist, T
+
+
+def _side(name: str, value: object) -> int:
+    if not _is_int(value) or not 1 <= value <= MAX_SIDE:
+        raise CalibrationError(f"'{name}' must be an integer in 1..{MAX_SIDE} (pixels), got {_brief(value)}")
+    return int(value)
+
+
+def _array(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
+    """``value`` as a finite float64 array of ``shape`` (``dist`` may be any 5-element array)."""
+    want = "x".join(map(str, shape)) if len(shape) > 1 else f"{shape[0]} numbers"
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "iuf":
+            raise CalibrationError(f"'{name}' must hold real numbers, got dtype {value.dtype}")
+        arr = value.astype(np.float64)
+    else:
+        arr = _from_lists(name, value, want)
+    if len(shape) == 1 and arr.size == shape[0] and arr.ndim <= 2:
+        arr = arr.reshape(-1)  # OpenCV gives dist as (1, 5)
+    if arr.shape != shape:
+        raise CalibrationError(f"'{name}' must be {want}, got shape {arr.shape}")
+    bad = np.argwhere(~np.isfinite(arr))
+    if len(bad):
+        at = tuple(int(i) for i in bad[0])
+        raise CalibrationError(f"{_element(name, at)} must be finite, got {arr[at]}")
+    return arr
+
+
+def _from_lists(name: str, value: object, want: str) -> np.ndarray:
+    """A float64 array from a list (of lists) of real numbers: no bools, strings or nulls."""
+    if not isinstance(value, list | tuple):
+        raise CalibrationError(f"'{name}' must be {want} (a list), got {_json_type(value)}")
+    rows = value if all(isinstance(r, list | tuple) for r in value) and value else None
+    items = ([((i, j), x) for i, r in enumerate(rows) for j, x in enumerate(r)] if rows is not None
+             else [((i,), x) for i, x in enumerate(value)])
+    for at, x in items:
+        if not _is_real(x):
+            raise CalibrationError(f"{_element(name, at)} must be a number, got {_brief(x)}")
         try:
-            data = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise CellError(f"{path}: no such camera file") from None
-        except json.JSONDecodeError as exc:
-            raise CellError(f"{path}: not valid JSON: {exc}") from None
-        missing = [k for k in ("width", "height", "K", "T_world_camera") if k not in data]
-        if missing:
-            raise CellError(f"{path}: missing key '{missing[0]}' (need width, height, K, T_world_camera)")
-        try:
-            return cls(
-                width=int(data["width"]),
-                height=int(data["height"]),
-                K=np.array(data["K"], dtype=np.float64),
-                dist=np.array(data.get("dist", [0.0] * 5), dtype=np.float64),
-                T_world_camera=np.array(data["T_world_camera"], dtype=np.float64),
-            )
-        except (TypeError, ValueError) as exc:
-            raise CellError(f"{path}: {exc}") from None
+            float(x)
+        except OverflowError:  # an integer of 400 digits
+            raise CalibrationError(f"{_element(name, at)} must be finite, got {_brief(x)}") from None
+    if rows is not None and len({len(r) for r in rows}) > 1:
+        raise CalibrationError(f"'{name}' must be {want}, got rows of lengths {[len(r) for r in rows]}")
+    return np.array(value, dtype=np.float64)
+
+
+def _check_intrinsics(K: np.ndarray) -> None:
+    for at in ((0, 0), (1, 1)):
+        if not K[at] > 0:
+            raise CalibrationError(f"{_element('K', at)} must be > 0 (pixels), got {K[at]}")
+    if not np.abs(K[2] - [0.0, 0.0, 1.0]).max() <= TOLERANCE:
+        raise CalibrationError(f"'K[2]' (bottom row) must be [0, 0, 1], got {_row(K[2])}")
+    if not abs(K[1, 0]) <= TOLERANCE:
+        raise CalibrationError(f"'K[1][0]' must be 0 (K is upper triangular), got {K[1, 0]}")
+
+
+def _check_pose(T: np.ndarray) -> None:
+    if not np.abs(T[3] - [0.0, 0.0, 0.0, 1.0]).max() <= TOLERANCE:
+        raise CalibrationError(f"'T_world_camera[3]' (bottom row) must be [0, 0, 0, 1], got {_row(T[3])}")
+    R = T[:3, :3]
+    with np.errstate(over="ignore", invalid="ignore"):  # R of 1e308: off is inf or nan, refused
+        off = float(np.abs(R.T @ R - np.eye(3)).max())
+    if not off <= TOLERANCE:
+        raise CalibrationError(f"'T_world_camera' rotation (top-left 3x3) is not orthonormal: "
+                               f"max |R^T R - I| = {off:.3g}, tolerance {TOLERANCE:g}")
+    if not np.linalg.det(R) > 0:  # orthonormal, so det is -1: a mirror image, not a rotation
+        raise CalibrationError("'T_world_camera' rotation (top-left 3x3) is a reflection: "
+                               "det = -1, must be +1")
+
+
+def _is_int(x: object) -> bool:
+    return isinstance(x, int | np.integer) and not isinstance(x, bool)
+
+
+def _is_real(x: object) -> bool:
+    return isinstance(x, int | float | np.integer | np.floating) and not isinstance(x, bool)
+
+
+def _element(name: str, at: tuple[int, ...]) -> str:
+    index = "".join(f"[{i}]" for i in at)
+    role = _K_ROLES.get(at) if name == "K" else None
+    return f"'{name}{index}'" + (f" ({role})" if role else "")
+
+
+def _row(values: np.ndarray) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in values) + "]"
+
+
+def _json_type(value: object) -> str:
+    names = {type(None): "null", bool: "a boolean", int: "a number", float: "a number",
+             str: "a string", list: "a list", tuple: "a list", dict: "an object"}
+    return names.get(type(value), type(value).__name__) + (f" {_brief(value)}" if _is_real(value) else "")
+
+
+def _brief(value: object, limit: int = 40) -> str:
+    """``repr`` of a user's value (non-printable characters escaped), cut to ``limit``."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

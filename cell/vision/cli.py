@@ -10,12 +10,22 @@ one), then ``--set key=value`` overrides: ``vision.threshold_method=otsu``, or s
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import io
 import json
+import math
+import os
+import stat
+import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
+import numpy as np
+from PIL import Image, UnidentifiedImageError
 
 from cell.camera import CameraModel
 from cell.errors import VisionError
@@ -23,12 +33,15 @@ from cell.scenario import load_scenario, scenario_from_dict
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
 
-__all__ = ["main"]
+__all__ = ["MAX_PIXELS", "main"]
+
+MAX_PIXELS = 50_000_000  # the largest image decoded (8K is 33 Mpx): bigger is refused unread
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="cell detect", description=__doc__.splitlines()[0])
-    p.add_argument("image", help="image file (PNG, JPEG, ...), read as RGB")
+    p.add_argument("image", help="image file (PNG, JPEG, ...), read as RGB; its size must be the "
+                   f"camera's, at most {MAX_PIXELS:,} pixels")
     p.add_argument("--camera", required=True, help="camera.json with K, dist, T_world_camera")
     p.add_argument("--scenario", default=None, help="scenario TOML whose [vision] section to use")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
@@ -45,6 +58,7 @@ def _qualify(assignment: str) -> str:
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)  # errors are ours to report
     overrides = [_qualify(a) for a in args.overrides]
     if args.scenario:
         scenario = load_scenario(args.scenario, overrides=overrides)
@@ -52,19 +66,17 @@ def main(argv: list[str]) -> int:
         scenario = scenario_from_dict({}, overrides=overrides)
     camera = CameraModel.load(args.camera)
     path = Path(args.image)
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise VisionError(f"{path}: cannot read the image (missing, or not an image file)")
-    rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    rgb = _read_image(path, camera)
     detector = PartDetector(scenario.vision)
     t0 = time.perf_counter()
     detections = detector.detect(rgb, camera)
     ms = (time.perf_counter() - t0) * 1e3
+    _check_finite(detections)
     if args.json:
         print(json.dumps({"image": str(path), "latency_ms": ms,
-                          "detections": [d.to_dict() for d in detections]}, indent=2))
+                          "detections": [d.to_dict() for d in detections]}, indent=2, allow_nan=False))
         return 0
-    print(f"{path}: {len(detections)} detection(s) in {ms:.1f} ms")
+    print(f"{_shown(path)}: {len(detections)} detection(s) in {ms:.1f} ms")
     if detections:
         print(f"{'id':>3} {'kind':<11} {'conf':>5} {'material':<8} {'conf':>5} "
               f"{'u':>7} {'v':>7} {'x mm':>8} {'y mm':>8} {'yaw deg':>8} {'partial':>7}")
@@ -75,3 +87,98 @@ def main(argv: list[str]) -> int:
               f"{d.material_confidence:>5.2f} {d.centroid[0]:>7.1f} {d.centroid[1]:>7.1f} "
               f"{x:>8} {y:>8} {d.yaw * 57.29578:>8.1f} {str(d.partial):>7}")
     return 0
+
+
+def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
+    """The image at ``path`` as uint8 RGB, its size checked against ``camera`` before decoding."""
+    _check_image_file(path)
+    w, h = _header_size(path)
+    if (w, h) != (camera.width, camera.height):
+        raise VisionError(f"image file {str(path)!r} is {w}x{h} pixels, the camera's is "
+                          f"{camera.width}x{camera.height}")
+    if w * h > MAX_PIXELS:
+        raise VisionError(f"image file {str(path)!r} is {w}x{h} pixels ({w * h:,}), more than "
+                          f"the {MAX_PIXELS:,} this command decodes (camera {camera.width}x{camera.height})")
+    with _c_stderr() as said:  # libpng writes its errors to stderr itself, past OpenCV's logging
+        bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        why = " ".join(said.read().split())[:120] or "damaged or truncated?"
+        raise VisionError(f"image file {str(path)!r}: cannot decode the image ({_plain(why)})")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+@contextlib.contextmanager
+def _c_stderr() -> Iterator[io.StringIO]:
+    """What C code writes to file descriptor 2 meanwhile, kept off the terminal; read it after."""
+    said = io.StringIO()
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr at all: nothing to keep off it
+        yield said
+        return
+    try:
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield said
+            finally:
+                os.dup2(saved, 2)
+                sink.seek(0)
+                said.write(sink.read(4096).decode("utf-8", "replace"))
+                said.seek(0)
+    finally:
+        os.close(saved)
+
+
+def _check_image_file(path: Path) -> None:
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise VisionError(f"no such image file: {str(path)!r}") from None
+    except OSError as exc:
+        raise VisionError(f"image file {str(path)!r}: cannot read it ({exc.strerror})") from None
+    if stat.S_ISDIR(mode):
+        raise VisionError(f"image file {str(path)!r} is a directory, not an image")
+    if not stat.S_ISREG(mode):
+        raise VisionError(f"image file {str(path)!r} is not a regular file")
+
+
+def _header_size(path: Path) -> tuple[int, int]:
+    """(width, height) from the image file's header; the pixels are not decoded.
+
+    Pillow's own decompression-bomb limit is lifted for this read (it would refuse a
+    huge image without saying its size); ``MAX_PIXELS`` is checked by the caller.
+    """
+    limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+    try:
+        with Image.open(path) as im:
+            return im.size
+    except UnidentifiedImageError:
+        raise VisionError(f"image file {str(path)!r} is not an image (PNG, JPEG, ...) or its "
+                          f"format is unknown") from None
+    except (OSError, SyntaxError, ValueError) as exc:  # unreadable, or a damaged header
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise VisionError(f"image file {str(path)!r}: cannot read its header ({_plain(reason)})") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = limit
+
+
+def _check_finite(detections: list) -> None:
+    """A non-finite number in a detection is refused: no output ever carries NaN or inf."""
+    for d in detections:
+        for key, value in d.to_dict().items():
+            numbers = value if isinstance(value, list) else [value]
+            if any(isinstance(v, float) and not math.isfinite(v) for v in numbers):
+                raise VisionError(f"detection {d.id}: '{key}' is {value}, not a finite number "
+                                  f"(degenerate [vision] settings?)")
+
+
+def _shown(path: Path) -> str:
+    """The path as typed, or escaped (``repr``) where it holds non-printable characters."""
+    return _plain(str(path))
+
+
+def _plain(text: str) -> str:
+    """``text``, or its ``repr`` (non-printable characters escaped) where it holds any."""
+    return text if text.isprintable() else repr(text)

@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
+import struct
+import zlib
 
 import cv2
+import numpy as np
 import pytest
 
 from cell.cli import main as cell_main
 from cell.sim import layout
-from cell.vision.cli import main
+from cell.vision.cli import MAX_PIXELS, main
+from cell.vision.detector import PartDetector
 
 
 @pytest.fixture(scope="module")
@@ -60,3 +66,166 @@ def test_errors_are_one_line_naming_the_culprit(snapshot, capsys, tmp_path):
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera",
                       str(tmp_path / "no.json")]) == 2
     assert "no.json" in capsys.readouterr().err
+
+
+# --- hardening (issue 12): bad camera files, images and outputs are one error line, exit 2 ---
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG that declares ``width`` x ``height`` RGB pixels but holds none: a size bomb's
+    header in 57 bytes (decoding it would allocate width * height * 3 bytes)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b"")
+
+
+def _one_error_line(capfd, *names: str) -> str:
+    """The run's whole stderr (fd level: OpenCV's own logging included): one line naming each of
+    ``names``, no traceback, nothing on stdout."""
+    out, err = capfd.readouterr()
+    assert out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("cell detect: error: "), err
+    assert all(n in lines[0] for n in names), err
+    return lines[0]
+
+
+def _camera_variant(snapshot, tmp_path, **changes) -> str:
+    data = json.loads((snapshot / "camera.json").read_text())
+    data.update(changes)
+    path = tmp_path / "camera.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+CAMERA_FILES = {
+    "null": b"null",
+    "a number": b"42",
+    "a list": b"[[1, 0, 0], [0, 1, 0], [0, 0, 1]]",
+    "binary": bytes(range(256)) * 4,
+    "Latin-1": '{"width": 640, "note": "\u00b5m"}'.encode("latin-1"),
+    "NaN literal": b'{"width": NaN}',
+}
+
+
+@pytest.mark.parametrize("content", CAMERA_FILES.values(), ids=CAMERA_FILES.keys())
+def test_unusable_camera_files_exit_2_naming_the_file(content, snapshot, tmp_path, capfd):
+    cam = tmp_path / "cam.json"
+    cam.write_bytes(content)
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(cam)]) == 2
+    _one_error_line(capfd, f"camera file '{cam}'")
+
+
+def test_camera_directory_or_missing_exit_2(snapshot, tmp_path, capfd):
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(tmp_path)]) == 2
+    assert "is a directory" in _one_error_line(capfd, f"camera file '{tmp_path}'")
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(tmp_path / "no.json")]) == 2
+    _one_error_line(capfd, f"no such camera file: '{tmp_path / 'no.json'}'")
+
+
+BAD_MODELS = {  # one field of the snapshot's camera.json changed: the message names it
+    "reflected rotation": ({"T_world_camera": [[-1, 0, 0, 0], [0, -1, 0, 0.45], [0, 0, -1, 0.48],
+                                               [0, 0, 0, 1]]}, "'T_world_camera' rotation"),
+    "K 1..9": ({"K": [[1, 2, 3], [4, 5, 6], [7, 8, 9]]}, "'K[2]' (bottom row)"),
+    "fractional width": ({"width": 640.5}, "'width'"),
+    "zero focal length": ({"K": [[0, 0, 319.5], [0, 659.4, 239.5], [0, 0, 1]]}, "'K[0][0]' (fx)"),
+}
+
+
+@pytest.mark.parametrize(("change", "field"), BAD_MODELS.values(), ids=BAD_MODELS.keys())
+def test_invalid_camera_models_exit_2_naming_the_field(change, field, snapshot, tmp_path, capfd):
+    cam = _camera_variant(snapshot, tmp_path, **change)
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", cam]) == 2
+    _one_error_line(capfd, cam, field)
+
+
+def _refuse_decoding(*args, **kwargs):
+    raise AssertionError("the image was decoded")
+
+
+def test_a_size_bomb_is_refused_from_its_header(snapshot, tmp_path, capfd, monkeypatch):
+    bomb = tmp_path / "bomb.png"
+    bomb.write_bytes(_png_header(25_000, 25_000))
+    monkeypatch.setattr(cv2, "imread", _refuse_decoding)
+    cam = str(snapshot / "camera.json")
+    assert cell_main(["detect", str(bomb), "--camera", cam]) == 2
+    _one_error_line(capfd, f"'{bomb}'", "25000x25000", "640x480")
+    big_camera = _camera_variant(snapshot, tmp_path, width=25_000, height=25_000)
+    assert cell_main(["detect", str(bomb), "--camera", big_camera]) == 2
+    _one_error_line(capfd, f"'{bomb}'", "25000x25000", f"{MAX_PIXELS:,}")
+
+
+def test_an_image_of_another_size_is_refused_before_decoding(snapshot, tmp_path, capfd, monkeypatch):
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((48, 64, 3), np.uint8))
+    monkeypatch.setattr(cv2, "imread", _refuse_decoding)
+    assert cell_main(["detect", str(small), "--camera", str(snapshot / "camera.json")]) == 2
+    _one_error_line(capfd, f"'{small}'", "64x48", "640x480")
+
+
+def _bad_image(kind: str, snapshot, tmp_path) -> tuple[str, str]:
+    """(path, expected words) of an image file that is missing, a directory, text or cut short."""
+    path = tmp_path / "image.png"
+    if kind == "missing":
+        return str(path), f"no such image file: '{path}'"
+    if kind == "directory":
+        path.mkdir()
+        return str(path), "is a directory"
+    if kind == "text":
+        path.write_text("not an image\n")
+        return str(path), "is not an image"
+    png = (snapshot / "rgb.png").read_bytes()
+    path.write_bytes(png[: len(png) // 2])  # cut in its pixel data: OpenCV logs a libpng error
+    return str(path), "cannot decode"
+
+
+@pytest.mark.parametrize("kind", ["missing", "directory", "text", "truncated"])
+def test_bad_image_files_are_one_line_without_opencv_logging(kind, snapshot, tmp_path, capfd):
+    path, words = _bad_image(kind, snapshot, tmp_path)
+    assert cell_main(["detect", path, "--camera", str(snapshot / "camera.json")]) == 2
+    assert "[ WARN" not in _one_error_line(capfd, f"'{path}'", words)  # libpng's own line: none either
+
+
+def test_paths_are_printed_escaped(snapshot, tmp_path, capfd):
+    path = tmp_path / "a\x1b[2J\x1b]0;title\x07.png"
+    assert cell_main(["detect", str(path), "--camera", str(snapshot / "camera.json")]) == 2
+    line = _one_error_line(capfd, r"a\x1b[2J\x1b]0;title\x07.png")
+    assert "\x1b" not in line and "\x07" not in line
+    cam = tmp_path / "c\x1b[31m.json"
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(cam)]) == 2
+    assert "\x1b" not in _one_error_line(capfd, r"c\x1b[31m.json")
+    path.write_bytes((snapshot / "rgb.png").read_bytes())  # the table's first line names the image
+    assert cell_main(["detect", str(path), "--camera", str(snapshot / "camera.json")]) == 0
+    out = capfd.readouterr().out
+    assert "\x1b" not in out and r"a\x1b[2J\x1b]0;title\x07.png" in out.splitlines()[0]
+
+
+def _no_constants(name: str):
+    raise AssertionError(f"non-finite constant {name} in the JSON output")
+
+
+def test_json_output_is_strict_json(snapshot, capsys):
+    assert main([str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"), "--json"]) == 0
+    json.loads(capsys.readouterr().out, parse_constant=_no_constants)
+
+
+def test_nan_never_reaches_the_output(snapshot, capfd):
+    args = ["detect", str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"),
+            "--set", "albedo_sigma=nan"]  # refused by the settings or by the output check
+    for extra in (["--json"], []):
+        assert cell_main(args + extra) == 2
+        _one_error_line(capfd)
+
+
+def test_a_non_finite_detection_is_an_error_not_output(snapshot, capfd, monkeypatch):
+    real = PartDetector.detect
+
+    def detect_nan_yaw(self, image, camera):
+        return [dataclasses.replace(d, yaw=math.nan) for d in real(self, image, camera)]
+
+    monkeypatch.setattr(PartDetector, "detect", detect_nan_yaw)
+    for extra in (["--json"], []):
+        assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera",
+                          str(snapshot / "camera.json"), *extra]) == 2
+        _one_error_line(capfd, "detection 1: 'yaw' is nan, not a finite number")

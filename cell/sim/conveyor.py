@@ -69,6 +69,7 @@ def add_conveyor(spec: mujoco.MjSpec) -> None:
             pos=[0, side * (layout.BELT_WIDTH / 2 + 0.004), layout.BELT_TOP + _RAIL / 2 - 0.005],
             material="rail",
         )
+    _add_catch_bin(body, cx)
     # The barrier looks across the belt (-y) from just inside the far rail.
     half = math.sqrt(0.5)
     body.add_site(
@@ -86,6 +87,25 @@ def add_conveyor(spec: mujoco.MjSpec) -> None:
     sensor.objname = "barrier"
     sensor.cutoff = layout.BELT_WIDTH
     sensor.intprm[0] = 1 << int(mujoco.mjtRayDataField.mjRAYDATA_DIST)  # distance only
+
+
+def _add_catch_bin(body: mujoco.MjsBody, cx: float) -> None:
+    """The catch bin under the belt's end (geoms ``catch_bin_*`` of the conveyor body).
+
+    Scenery only (no contacts): a part that falls off the end is parked off stage as soon
+    as its centre drops below the catch line, above the bin's rim (``World.caught``).
+    """
+    sx, sy, h = layout.CATCH_BIN_SIZE
+    wall = 0.006
+    x0 = layout.BELT_X[1] + wall + sx / 2 - cx  # bin centre in the conveyor body's frame
+    look = {"contype": 0, "conaffinity": 0, "rgba": [0.25, 0.27, 0.3, 1]}
+    body.add_geom(name="catch_bin_floor", type=mujoco.mjtGeom.mjGEOM_BOX,
+                  size=[sx / 2, sy / 2, wall / 2], pos=[x0, 0, wall / 2], **look)
+    for i, (dx, dy) in enumerate(((1, 0), (-1, 0), (0, 1), (0, -1))):
+        size = [wall / 2, sy / 2 + wall, h / 2] if dx else [sx / 2 + wall, wall / 2, h / 2]
+        pos = [x0 + dx * (sx / 2 + wall / 2), dy * (sy / 2 + wall / 2), h / 2]
+        body.add_geom(name=f"catch_bin_wall{i}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                      size=size, pos=pos, **look)
 
 
 @dataclass

@@ -19,6 +19,15 @@ SPAWN_X = -0.72  # where parts are dropped onto the belt
 BARRIER_X = 0.015  # the light barrier crosses the belt here
 PICK_ZONE = np.array([0.0, CONVEYOR_Y, BELT_TOP])
 
+# The catch zone past the belt's end: a part carried off the end falls towards the catch bin
+# under it, and once its centre has dropped CATCH_DROP below the belt's top while past the
+# end (within CATCH_HALF_WIDTH of the belt's centre line) it counts as caught and is parked
+# off stage, out of the contact set. The bin itself (inner size CATCH_BIN_SIZE, rim below
+# the catch line) is scenery: nothing ever rests in it.
+CATCH_DROP = 0.02
+CATCH_HALF_WIDTH = 0.15
+CATCH_BIN_SIZE = (0.18, 0.24, BELT_TOP - CATCH_DROP - 0.008)  # inner x, y extent, wall height
+
 OVERHEAD_CAMERA_HEIGHT = 0.40  # above the belt surface, looking straight down
 
 BIN_SIZE = (0.16, 0.16, 0.08)  # inner x, y extent and wall height

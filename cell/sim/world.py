@@ -6,6 +6,14 @@ part of the run. Parts wait off stage (floating, gravity compensated) until the 
 spawns them upstream one after another; the model never changes during a run, so
 everything holding it (renderers, IK) stays valid.
 
+Parts that ride off the belt's end fall towards the catch bin under it. While on the belt
+and falling they move only through gravity and contact forces; once a part's centre has
+dropped ``layout.CATCH_DROP`` below the belt's top past the belt's end (the catch line,
+above the bin's rim) it is caught: counted in ``World.caught`` and parked back at its own
+off-stage slot, floating, at rest and out of reach of every other geom, for the rest of
+the run. So nothing piles up past the belt, the contact set holds only the parts on
+stage, and a run's cost grows linearly with its length.
+
 Randomness: one ``np.random.SeedSequence(scenario.seed)`` gives independent streams for
 the part sequence and for the sensor noise, so rendering more or fewer frames never
 changes which parts come.
@@ -37,6 +45,11 @@ __all__ = ["CAMERAS", "PartInfo", "World", "build_spec"]
 
 CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
+
+
+def _offstage_slot(part_id: int) -> np.ndarray:
+    """Where part ``part_id`` floats before it is spawned and after it is caught."""
+    return _OFFSTAGE + np.array([0.1 * (part_id % 20), 0.1 * (part_id // 20), 0.0])
 
 
 @dataclass(frozen=True)
@@ -88,8 +101,7 @@ def build_spec(
     if arm:
         add_arm(spec)
     for i, (kind, finish) in enumerate(sequence, start=1):
-        pos = _OFFSTAGE + np.array([0.1 * (i % 20), 0.1 * (i // 20), 0.0])
-        body = add_part(spec, f"part_{i}", kind, finish, pos)
+        body = add_part(spec, f"part_{i}", kind, finish, _offstage_slot(i))
         body.gravcomp = 1.0
     return spec
 
@@ -98,7 +110,9 @@ class World:
     """The running cell. Build it with ``World.build(scenario)``.
 
     Attributes: ``model``, ``data`` (MuJoCo), ``scenario``, ``parts`` (every part of the
-    run, spawned or not), ``conveyor`` (belt control), ``lighting`` (the active preset).
+    run, spawned or not), ``spawned`` (how many are out), ``caught_ids`` (the parts that
+    fell off the belt's end into the catch bin, in order; ``caught`` counts them),
+    ``conveyor`` (belt control), ``lighting`` (the active preset).
     """
 
     def __init__(self, scenario: Scenario, *, arm: bool = True) -> None:
@@ -121,9 +135,12 @@ class World:
             self.parts.append(PartInfo(i, kind, finish, m.material, m.colour, bid))
         self._part_of_geom = np.zeros(self.model.ngeom, dtype=np.int32)
         body_to_part = {p.body_id: p.id for p in self.parts}
+        self._part_of_body = body_to_part
         for g in range(self.model.ngeom):
             self._part_of_geom[g] = body_to_part.get(int(self.model.geom_bodyid[g]), 0)
         self.spawned = 0
+        self.caught_ids: list[int] = []
+        self._live = np.zeros(0, dtype=np.int64)  # body ids of the spawned, uncaught parts
         self._travel_at_spawn = -math.inf
         self.conveyor = Conveyor(self.model, scenario.conveyor.speed, scenario.conveyor.mode)
         self.lighting: LightingPreset = apply_lighting(self.model, scenario.lighting)
@@ -166,6 +183,8 @@ class World:
             ):
                 self._spawn_upstream()
             mujoco.mj_step(self.model, self.data)
+            if self._live.size:
+                self._catch()
 
     def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
         """Run until the light barrier is broken, then ``settle`` seconds more.
@@ -182,6 +201,48 @@ class World:
         return True
 
     # --- parts ------------------------------------------------------------------------
+    @property
+    def caught(self) -> int:
+        """How many parts fell off the belt's end into the catch bin (and were parked)."""
+        return len(self.caught_ids)
+
+    @property
+    def on_stage(self) -> list[PartInfo]:
+        """The spawned parts still in the cell (not caught), in spawn order."""
+        caught = set(self.caught_ids)
+        return [p for p in self.parts[: self.spawned] if p.id not in caught]
+
+    def is_caught(self, part_id: int) -> bool:
+        """True once part ``part_id`` has fallen into the catch bin (it is parked off stage)."""
+        return part_id in self.caught_ids
+
+    def _catch(self) -> None:
+        """Park the parts whose centre has crossed the catch line past the belt's end."""
+        pos = self.data.xpos[self._live]
+        hit = (
+            (pos[:, 0] > layout.BELT_X[1])
+            & (np.abs(pos[:, 1] - layout.CONVEYOR_Y) < layout.CATCH_HALF_WIDTH)
+            & (pos[:, 2] < layout.BELT_TOP - layout.CATCH_DROP)
+        )
+        if not hit.any():
+            return
+        for body in self._live[hit]:
+            part = self.parts[self._part_of_body[int(body)] - 1]
+            self._park(part)
+            self.caught_ids.append(part.id)
+        self._live = self._live[~hit]
+        mujoco.mj_forward(self.model, self.data)  # poses and sensors show the bin emptied
+
+    def _park(self, part: PartInfo) -> None:
+        """Put ``part`` back at its off-stage slot, floating at rest."""
+        adr = self.model.jnt_qposadr[self.model.body_jntadr[part.body_id]]
+        self.data.qpos[adr : adr + 3] = _offstage_slot(part.id)
+        self.data.qpos[adr + 3 : adr + 7] = [1, 0, 0, 0]
+        self._set_velocity(part, [0, 0, 0])
+        dof = self.model.jnt_dofadr[self.model.body_jntadr[part.body_id]]
+        self.data.qacc_warmstart[dof : dof + 6] = 0
+        self.model.body_gravcomp[part.body_id] = 1.0
+
     def _spawn_upstream(self) -> None:
         lateral = self.scenario.parts.lateral_range
         y = layout.CONVEYOR_Y + self.rng.uniform(-lateral, lateral)
@@ -193,7 +254,8 @@ class World:
     def place_next_part(self, x: float, y: float, yaw: float) -> PartInfo:
         """Put the next waiting part at rest at (x, y) (world, metres) with yaw (rad).
 
-        It is dropped from 1 mm above the surface under it (belt or table). Raises
+        It is dropped from 1 mm above the surface under it (belt or table); a part put
+        past the belt's end below the catch line is caught at the next step. Raises
         SimError when every part of the run is already out.
         """
         if self.spawned >= len(self.parts):
@@ -210,6 +272,7 @@ class World:
         self.data.qpos[adr + 3 : adr + 7] = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
         self._set_velocity(part, [0, 0, 0])
         self.model.body_gravcomp[part.body_id] = 0.0
+        self._live = np.append(self._live, part.body_id)
         mujoco.mj_forward(self.model, self.data)
         return part
 

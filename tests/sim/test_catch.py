@@ -1,0 +1,57 @@
+"""Parts carried off the belt's end fall into the catch bin, are counted and leave the
+contact set (issue #12, item 11: before, 200 parts heaped up past the end and the
+simulation crawled)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cell.sim import layout
+
+
+def _part_geoms(world) -> set[int]:
+    bodies = {p.body_id for p in world.parts}
+    return {g for g in range(world.model.ngeom) if int(world.model.geom_bodyid[g]) in bodies}
+
+
+def test_parts_off_the_belts_end_are_caught_parked_and_counted(world_factory):
+    n = 30
+    world = world_factory(parts={"count": n, "spacing": 0.04},
+                          conveyor={"speed": 0.5, "mode": "continuous"})
+    part_geoms = _part_geoms(world)
+    peak_contacts = 0
+    for _ in range(60):  # 6 s in 0.1 s chunks: every part spawns, rides and falls off
+        world.step(50)
+        on_stage = 0
+        for part in world.parts[: world.spawned]:
+            x, _, z = world.part_pose(part.id)[0]
+            if x >= 2.0:  # parked off stage
+                continue
+            on_stage += 1
+            # Nothing lies past the belt's end: a part there is on its way down, not heaped.
+            assert x <= layout.BELT_X[1] or z > layout.BELT_TOP - 0.03, f"part {part.id} heaped"
+        # The contact set holds only the parts on stage: a few contacts each.
+        assert world.data.ncon <= 8 * on_stage + 8
+        peak_contacts = max(peak_contacts, world.data.ncon)
+    assert world.spawned == n
+    assert world.caught == n and sorted(world.caught_ids) == list(range(1, n + 1))
+    assert world.on_stage == [] and all(world.is_caught(i) for i in range(1, n + 1))
+    assert 0 < peak_contacts <= 8 * 26  # at most ~25 parts on the 1.1 m belt at 4 cm spacing
+    # Caught parts float off stage, at rest and touching nothing, and stay there.
+    parked = np.array([world.part_pose(i)[0] for i in range(1, n + 1)])
+    assert (parked[:, 0] >= 3.0).all() and (parked[:, 2] > 1.0).all()
+    world.step(250)
+    assert np.allclose([world.part_pose(i)[0] for i in range(1, n + 1)], parked, atol=1e-9)
+    touching = {int(g) for c in world.data.contact[: world.data.ncon] for g in (c.geom1, c.geom2)}
+    assert not touching & part_geoms
+
+
+def test_only_the_catch_zone_catches(world_factory):
+    world = world_factory(parts={"count": 3, "kinds": ["washer"]}, conveyor={"speed": 0.0})
+    in_bin = world.place_next_part(*layout.BINS["metal"][:2], 0.0)  # a sorted part
+    beside = world.place_next_part(layout.BELT_X[1] + 0.05, layout.CONVEYOR_Y - 0.25, 0.0)
+    past_end = world.place_next_part(layout.BELT_X[1] + 0.05, layout.CONVEYOR_Y, 0.0)
+    world.step(100)
+    assert world.caught_ids == [past_end.id]
+    assert [p.id for p in world.on_stage] == [in_bin.id, beside.id]
+    assert world.part_pose(in_bin.id)[0][2] < 0.05 and world.part_pose(beside.id)[0][2] < 0.05

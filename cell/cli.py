@@ -2,17 +2,21 @@
 
 Each command lives in its own module with a ``main(argv) -> int``; this file only
 dispatches, so a command's imports (MuJoCo, OpenCV, ...) load only when it runs. Any
-``CellError`` becomes one line on stderr and exit status 2.
+``CellError`` becomes one line on stderr and exit status 2. Every message that echoes
+a user's string goes through :func:`printable` (:func:`cell.config.escape`), so it cannot
+carry terminal escapes, line breaks or undecodable bytes.
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
+from importlib.metadata import PackageNotFoundError, version
 
+from cell.config import escape as printable  # (one escaping rule for every message)
 from cell.errors import CellError
 
-__all__ = ["COMMANDS", "main"]
+__all__ = ["COMMANDS", "main", "printable"]
 
 COMMANDS: dict[str, tuple[str, str]] = {
     "snapshot": ("cell.jobs.snapshot", "render what a camera sees when a part reaches the pick zone"),
@@ -21,8 +25,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+def _version() -> str:
+    try:
+        return version("cell")
+    except PackageNotFoundError:
+        return "unknown (package not installed; run 'pip install -e .')"
+
+
 def _usage() -> str:
-    lines = ["usage: cell COMMAND [options]", "", "commands:"]
+    lines = ["usage: cell COMMAND [options]", "       cell --version", "", "commands:"]
     lines += [f"  {name:<10} {doc}" for name, (_, doc) in COMMANDS.items()]
     lines += ["", "Run 'cell COMMAND --help' for a command's options."]
     return "\n".join(lines)
@@ -30,18 +41,25 @@ def _usage() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help"):
+    if not argv:
+        print(_usage(), file=sys.stderr)
+        return 2
+    if argv[0] in ("-h", "--help"):
         print(_usage())
-        return 0 if argv else 2
+        return 0
+    if argv[0] == "--version":
+        print(f"cell {_version()}")
+        return 0
     name, rest = argv[0], argv[1:]
     if name not in COMMANDS:
-        print(f"cell: error: unknown command '{name}'; valid: {', '.join(COMMANDS)}", file=sys.stderr)
+        print(f"cell: error: unknown command {printable(repr(name))}; valid: {', '.join(COMMANDS)}",
+              file=sys.stderr)
         return 2
     try:
         module = importlib.import_module(COMMANDS[name][0])
         return int(module.main(rest) or 0)
     except CellError as exc:
-        print(f"cell {name}: error: {exc}", file=sys.stderr)
+        print(f"cell {name}: error: {printable(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"cell {name}: interrupted", file=sys.stderr)

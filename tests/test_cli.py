@@ -55,3 +55,45 @@ def test_bad_scenario_exits_2_with_one_line_and_no_traceback(tmp_path):
 def test_unknown_command_lists_the_valid_ones():
     r = _cell("fly")
     assert r.returncode == 2 and "valid: snapshot" in r.stderr
+
+
+def test_no_arguments_prints_the_usage_to_stderr_and_exits_2():
+    r = _cell()
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("usage: cell COMMAND")
+
+
+def test_help_prints_the_usage_to_stdout_and_exits_0():
+    r = _cell("--help")
+    assert r.returncode == 0 and r.stderr == "" and "--version" in r.stdout
+
+
+def test_version_prints_the_package_version():
+    from importlib.metadata import version
+
+    r = _cell("--version")
+    assert r.returncode == 0 and r.stderr == ""
+    assert r.stdout == f"cell {version('cell')}\n"
+
+
+def test_user_strings_in_errors_are_printed_escaped(tmp_path):
+    r = _cell("fly\x1b]0;owned\x07")
+    assert r.returncode == 2 and "\x1b" not in r.stderr and "\x07" not in r.stderr
+    assert "fly\\x1b]0;owned\\x07" in r.stderr and len(r.stderr.splitlines()) == 1
+
+    # A CellError's message (here a scenario path with a line break and an escape) stays one line.
+    r = _cell("snapshot", "no\nsuch\x1b[2J.toml", "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.splitlines() == ["cell snapshot: error: no\\nsuch\\x1b[2J.toml: no such scenario file"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_time_out_of_range_is_a_usage_error_without_traceback(tmp_path):
+    r = _cell("snapshot", "scenarios/sort.toml", "--time", "nan", "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and r.stdout == ""
+    assert r.stderr.startswith("usage: cell snapshot")
+    assert [line for line in r.stderr.splitlines() if "error" in line] == [
+        "cell snapshot: error: argument --time: must be a finite number of seconds in [0, 3600], "
+        "got 'nan'"
+    ]
+    assert list(tmp_path.iterdir()) == []

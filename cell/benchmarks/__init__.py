@@ -2,14 +2,22 @@
 
 A benchmark prints ratios measured in one run (our code against a baseline or a physical
 bound) plus absolute figures for information; ``--json`` prints one JSON object instead.
+Each module also has ``parser() -> argparse.ArgumentParser`` (cheap: no MuJoCo or OpenCV
+import), which ``cell bench --help`` lists. Option values are checked by the parser (the
+``int_in`` / ``float_in`` types below): a bad one is one error line, exit status 2. No
+figure is ever NaN: a figure with no samples is ``None`` (``null`` in JSON, ``-`` in a
+table).
 """
 
 from __future__ import annotations
 
+import argparse
 import importlib
+import math
 import sys
+from collections.abc import Callable
 
-__all__ = ["BENCHMARKS", "main"]
+__all__ = ["BENCHMARKS", "fmt", "float_in", "int_in", "main"]
 
 BENCHMARKS: dict[str, str] = {
     "render": "cell.benchmarks.render",
@@ -17,14 +25,74 @@ BENCHMARKS: dict[str, str] = {
     "pick": "cell.benchmarks.pick",
 }
 
+_USAGE = f"usage: cell bench {{{','.join(BENCHMARKS)}}} [options]"
+
+
+def int_in(lo: int, hi: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer from ``lo`` to ``hi`` (inclusive)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"must be an integer from {lo} to {hi}, got {text!r}") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be {lo} to {hi}, got {value}")
+        return value
+
+    parse.__name__ = "integer"  # (named in argparse's own messages)
+    return parse
+
+
+def float_in(lo: float, hi: float) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number from ``lo`` to ``hi`` (inclusive)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except (ValueError, OverflowError):
+            raise argparse.ArgumentTypeError(f"must be a number from {lo:g} to {hi:g}, "
+                                             f"got {text!r}") from None
+        if not math.isfinite(value) or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be a finite number from {lo:g} to {hi:g}, "
+                                             f"got {text!r}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def fmt(value: float | None, spec: str) -> str:
+    """``value`` formatted with ``spec`` (e.g. ``'>8.3f'``); ``-`` (same width) when it is
+    ``None`` or not finite (a figure with no samples)."""
+    if value is None or not math.isfinite(value):
+        width = "".join(c for c in spec.split(".")[0] if c.isdigit())
+        return format("-", f">{width}" if width else "")
+    return format(value, spec)
+
+
+def _help() -> str:
+    lines = [_USAGE, "", "Benchmarks (each prints a table, or one JSON object with --json):"]
+    parsers = {name: importlib.import_module(mod).parser() for name, mod in BENCHMARKS.items()}
+    lines += [f"  {name:<8} {p.description}" for name, p in parsers.items()]
+    lines += ["", "Run 'cell bench NAME --help' for one benchmark's options; all of them:"]
+    for p in parsers.values():
+        lines += ["", *p.format_help().rstrip().splitlines()]
+    return "\n".join(lines)
+
 
 def main(argv: list[str]) -> int:
-    if not argv or argv[0] in ("-h", "--help"):
-        print(f"usage: cell bench {{{','.join(BENCHMARKS)}}} [--json]")
-        return 0 if argv else 2
+    if argv and argv[0] in ("-h", "--help"):
+        print(_help())
+        return 0
+    if not argv:
+        print(f"{_USAGE}\ncell bench: error: name a benchmark: {', '.join(BENCHMARKS)} "
+              "('cell bench --help' lists their options)", file=sys.stderr)
+        return 2
     name = argv[0]
     if name not in BENCHMARKS:
-        print(f"cell bench: error: unknown benchmark '{name}'; valid: {', '.join(BENCHMARKS)}",
-              file=sys.stderr)
+        print(f"{_USAGE}\ncell bench: error: unknown benchmark '{name}'; valid: "
+              f"{', '.join(BENCHMARKS)}", file=sys.stderr)
         return 2
     return int(importlib.import_module(BENCHMARKS[name]).main(argv[1:]) or 0)

@@ -15,6 +15,9 @@ right bin). Reported per kind and overall:
 - IK wall time per solve (ms): mean and 95th percentile, and iterations per solve;
 - the peak torque of each joint over its UR5e rating (servos plus feed-forward), and
   the largest error between a joint and its reference during the motions (mrad).
+
+A figure with no samples (no cycle finished) is ``None``: ``null`` in JSON, ``-`` in the
+table; never NaN.
 """
 
 from __future__ import annotations
@@ -25,19 +28,22 @@ import time
 
 import numpy as np
 
+from cell.benchmarks import float_in, fmt, int_in
 from cell.catalogue import KINDS
 from cell.errors import CellError
 from cell.scenario import scenario_from_dict
-from cell.sim import World, layout
-from cell.sim.arm import EFFORT, JOINT_NAMES
 
-__all__ = ["main", "run_kind"]
+__all__ = ["MAX_POSES", "main", "parser", "run_kind"]
+
+MAX_POSES = 199  # poses per kind: the scenario holds poses + 1 parts, at most 200
 
 _X_RANGE = 0.04  # pick-zone poses: x within +-this of PICK_ZONE (m)
 _Y_RANGE = 0.05  # and y within +-this of the belt's centre line (m)
 
 
 def _in_bin(pos: np.ndarray, bin_name: str) -> bool:
+    from cell.sim import layout
+
     centre = layout.BINS[bin_name]
     half = np.array(layout.BIN_SIZE[:2]) / 2
     return bool(np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2])
@@ -49,8 +55,17 @@ def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
 
     ``noise_mm`` / ``noise_deg``: standard deviation of Gaussian errors added to the
     ground-truth position (each axis, mm) and yaw (deg) given to the robot, to see how
-    much pose error a vision stack may leave."""
+    much pose error a vision stack may leave. Figures with no samples are ``None``."""
     from cell.robot.pick import PartTarget, PickPlace
+    from cell.sim import World, layout
+    from cell.sim.arm import EFFORT, JOINT_NAMES
+
+    if kind not in KINDS:
+        raise ValueError(f"kind: unknown {kind!r}; valid: {', '.join(KINDS)}")
+    if not 1 <= poses <= MAX_POSES:
+        raise ValueError(f"poses: must be 1 to {MAX_POSES}, got {poses}")
+    if not (np.isfinite(noise_mm) and np.isfinite(noise_deg) and noise_mm >= 0 and noise_deg >= 0):
+        raise ValueError(f"noise: must be finite and >= 0, got {noise_mm} mm, {noise_deg} deg")
 
     scenario = scenario_from_dict({
         "seed": seed, "parts": {"count": poses + 1, "kinds": [kind]},
@@ -93,56 +108,77 @@ def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
         world.step(150)  # let the part come to rest in the bin
         ok += _in_bin(world.part_pose(part.id)[0], part.material)
     world.close()
-    mean_cycle = float(np.mean(cycles)) if cycles else float("nan")
+    mean_cycle = _mean(cycles)
     return {
         "poses": poses,
         "success_rate": ok / poses,
         "mean_cycle_s": mean_cycle,
-        "cycles_per_min": 60.0 / mean_cycle if cycles else 0.0,
-        "ratio_to_optimal": float(np.mean(ratios)) if ratios else float("nan"),
-        "ratio_to_optimal_max": float(np.max(ratios)) if ratios else float("nan"),
-        "ik_ms_mean": float(np.mean(ik_ms)) if ik_ms else float("nan"),
-        "ik_ms_p95": float(np.percentile(ik_ms, 95)) if ik_ms else float("nan"),
-        "ik_iterations_mean": float(np.mean(ik_its)) if ik_its else float("nan"),
+        "cycles_per_min": 60.0 / mean_cycle if mean_cycle else None,
+        "ratio_to_optimal": _mean(ratios),
+        "ratio_to_optimal_max": float(np.max(ratios)) if ratios else None,
+        "ik_ms_mean": _mean(ik_ms),
+        "ik_ms_p95": float(np.percentile(ik_ms, 95)) if ik_ms else None,
+        "ik_iterations_mean": _mean(ik_its),
         "max_tracking_error_mrad": 1000 * skill.driver.max_tracking_error,
         "peak_torque_over_effort": [round(float(v), 3) for v in peak / effort],
         "errors": errors,
     }
 
 
-def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(prog="cell bench pick", description=__doc__.split("\n")[0])
+def _mean(values: list[float]) -> float | None:
+    """The mean of the figures that were measured (``None`` ones left out); ``None`` if none."""
+    values = [v for v in values if v is not None]
+    return float(np.mean(values)) if values else None
+
+
+def parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="cell bench pick",
+        description="the robot alone: pick-and-place cycles from ground-truth poses, per part kind")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    ap.add_argument("--quick", action="store_true", help="2 poses per kind (smoke test)")
-    ap.add_argument("--poses", type=int, default=20, help="poses per kind (default 20)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--pose-noise-mm", type=float, default=0.0,
-                    help="std of the position error given to the robot, per axis (mm)")
-    ap.add_argument("--yaw-noise-deg", type=float, default=0.0,
-                    help="std of the yaw error given to the robot (deg)")
-    ap.add_argument("--kinds", nargs="*", default=list(KINDS), choices=list(KINDS))
+    ap.add_argument("--quick", action="store_true",
+                    help="2 poses per kind (smoke test; --poses overrides)")
+    ap.add_argument("--poses", type=int_in(1, MAX_POSES), default=None, metavar="N",
+                    help=f"poses per kind, 1 to {MAX_POSES} (default 20)")
+    ap.add_argument("--seed", type=int_in(0, 2**63 - 1), default=0, metavar="S",
+                    help="seed of the poses, 0 to 2**63-1 (default 0)")
+    ap.add_argument("--pose-noise-mm", type=float_in(0.0, 100.0), default=0.0, metavar="MM",
+                    help="std of the position error given to the robot, per axis, 0 to 100 mm "
+                    "(default 0)")
+    ap.add_argument("--yaw-noise-deg", type=float_in(0.0, 180.0), default=0.0, metavar="DEG",
+                    help="std of the yaw error given to the robot, 0 to 180 deg (default 0)")
+    ap.add_argument("--kinds", nargs="*", default=None, choices=list(KINDS), metavar="KIND",
+                    help=f"part kinds to pick, one or more of: {', '.join(KINDS)} (default: all)")
+    return ap
+
+
+def main(argv: list[str]) -> int:
+    ap = parser()
     args = ap.parse_args(argv)
-    poses = 2 if args.quick else args.poses
+    if args.kinds == []:
+        ap.error(f"argument --kinds: give one or more of: {', '.join(KINDS)}")
+    kinds = list(dict.fromkeys(args.kinds)) if args.kinds else list(KINDS)
+    poses = args.poses if args.poses is not None else (2 if args.quick else 20)
     t0 = time.perf_counter()
     per_kind = {k: run_kind(k, poses, args.seed, noise_mm=args.pose_noise_mm,
-                            noise_deg=args.yaw_noise_deg) for k in args.kinds}
+                            noise_deg=args.yaw_noise_deg) for k in kinds}
     rows = list(per_kind.values())
     n = sum(r["poses"] for r in rows)
-    cyc = [r["mean_cycle_s"] for r in rows]
+    mean_cycle = _mean([r["mean_cycle_s"] for r in rows])
     overall = {
         "poses": n,
         "success_rate": sum(r["success_rate"] * r["poses"] for r in rows) / n,
-        "mean_cycle_s": float(np.nanmean(cyc)),
-        "cycles_per_min": 60.0 / float(np.nanmean(cyc)),
-        "ratio_to_optimal": float(np.nanmean([r["ratio_to_optimal"] for r in rows])),
-        "ik_ms_mean": float(np.nanmean([r["ik_ms_mean"] for r in rows])),
+        "mean_cycle_s": mean_cycle,
+        "cycles_per_min": 60.0 / mean_cycle if mean_cycle else None,
+        "ratio_to_optimal": _mean([r["ratio_to_optimal"] for r in rows]),
+        "ik_ms_mean": _mean([r["ik_ms_mean"] for r in rows]),
         "wall_s": time.perf_counter() - t0,
     }
     if args.json:
         print(json.dumps({"benchmark": "pick", "seed": args.seed,
                           "pose_noise_mm": args.pose_noise_mm,
                           "yaw_noise_deg": args.yaw_noise_deg, "kinds": per_kind,
-                          "overall": overall}, indent=2))
+                          "overall": overall}, indent=2, allow_nan=False))
         return 0
     noise = (f", pose error std {args.pose_noise_mm} mm / {args.yaw_noise_deg} deg"
              if args.pose_noise_mm or args.yaw_noise_deg else "")
@@ -150,18 +186,18 @@ def main(argv: list[str]) -> int:
     print(f"{'kind':<11} {'success':>8} {'cycle s':>8} {'cyc/min':>8} {'ratio':>6} "
           f"{'ratio max':>9} {'IK ms':>6} {'IK p95':>7} {'IK it':>6}")
     for k, r in per_kind.items():
-        print(f"{k:<11} {100 * r['success_rate']:>7.1f}% {r['mean_cycle_s']:>8.3f} "
-              f"{r['cycles_per_min']:>8.1f} {r['ratio_to_optimal']:>6.3f} "
-              f"{r['ratio_to_optimal_max']:>9.3f} {r['ik_ms_mean']:>6.3f} {r['ik_ms_p95']:>7.3f} "
-              f"{r['ik_iterations_mean']:>6.2f}")
+        print(f"{k:<11} {100 * r['success_rate']:>7.1f}% {fmt(r['mean_cycle_s'], '>8.3f')} "
+              f"{fmt(r['cycles_per_min'], '>8.1f')} {fmt(r['ratio_to_optimal'], '>6.3f')} "
+              f"{fmt(r['ratio_to_optimal_max'], '>9.3f')} {fmt(r['ik_ms_mean'], '>6.3f')} "
+              f"{fmt(r['ik_ms_p95'], '>7.3f')} {fmt(r['ik_iterations_mean'], '>6.2f')}")
         print(f"{'':<11} peak torque / rating per joint: {r['peak_torque_over_effort']}, "
               f"largest tracking error {r['max_tracking_error_mrad']:.2f} mrad")
         for e in r["errors"]:
             print(f"    error: {e}")
     o = overall
-    print(f"{'overall':<11} {100 * o['success_rate']:>7.1f}% {o['mean_cycle_s']:>8.3f} "
-          f"{o['cycles_per_min']:>8.1f} {o['ratio_to_optimal']:>6.3f} {'':>9} "
-          f"{o['ik_ms_mean']:>6.3f}")
+    print(f"{'overall':<11} {100 * o['success_rate']:>7.1f}% {fmt(o['mean_cycle_s'], '>8.3f')} "
+          f"{fmt(o['cycles_per_min'], '>8.1f')} {fmt(o['ratio_to_optimal'], '>6.3f')} {'':>9} "
+          f"{fmt(o['ik_ms_mean'], '>6.3f')}")
     print("ratio = cycle time / time-optimal time of the same joint segments under the same "
           f"limits; wall {o['wall_s']:.1f} s")
     return 0

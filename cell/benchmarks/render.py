@@ -4,6 +4,7 @@ Prints, for each camera, milliseconds per frame for RGB (under an unshadowed pre
 under ``raking``, the one preset with shadows), depth and segmentation, and the cost of
 the sensor model as a ratio to the raw render; then physics steps per second with the
 arm and 10 parts on the belt and the real-time factor (simulated / wall seconds).
+A ratio whose denominator measured zero is ``None`` (``null`` in JSON, ``-`` in the table).
 """
 
 from __future__ import annotations
@@ -14,12 +15,17 @@ import time
 
 import numpy as np
 
+from cell.benchmarks import fmt, int_in
 from cell.scenario import scenario_from_dict
-from cell.sim.world import World
 
-__all__ = ["main", "run"]
+__all__ = ["MAX_REPEATS", "main", "parser", "run"]
 
 RGB_TARGET_MS = 25.0  # the issue's budget for one 640x480 RGB frame on a 2-core CPU
+MAX_REPEATS = 10_000
+
+
+def _ratio(a: float, b: float) -> float | None:
+    return a / b if b > 0 else None
 
 
 def _ms(fn, repeats: int) -> float:
@@ -34,6 +40,12 @@ def _ms(fn, repeats: int) -> float:
 
 def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int = 480) -> dict:
     """Measure and return the figures as a dict (see the module docstring)."""
+    from cell.sim.world import World
+
+    if not 1 <= repeats <= MAX_REPEATS:
+        raise ValueError(f"repeats: must be 1 to {MAX_REPEATS}, got {repeats}")
+    if steps < 1:
+        raise ValueError(f"steps: must be at least 1, got {steps}")
     scenario = scenario_from_dict({"seed": 0, "parts": {"count": 10},
                                    "camera": {"width": width, "height": height}})
     world = World.build(scenario, arm=True)
@@ -51,7 +63,7 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
             world.set_lighting("front")
             out["depth_ms"] = _ms(lambda r=rig: r.render_depth(world.data), repeats)
             out["seg_ms"] = _ms(lambda r=rig: r.render_seg(world.data), repeats)
-            out["sensor_overhead_ratio"] = out["rgb_front_ms"] / out["rgb_raw_front_ms"]
+            out["sensor_overhead_ratio"] = _ratio(out["rgb_front_ms"], out["rgb_raw_front_ms"])
             out["rgb_worst_vs_target_ratio"] = max(out["rgb_front_ms"], out["rgb_raking_ms"]) / RGB_TARGET_MS
             cameras[cam] = out
         world.conveyor.mode = "continuous"  # keep parts moving: contacts change every step
@@ -66,7 +78,7 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
         "cameras": cameras,
         "physics": {
             "bodies": int(world.model.nbody), "dofs": int(world.model.nv),
-            "steps_per_s": steps / wall, "real_time_factor": (world.time - sim0) / wall,
+            "steps_per_s": _ratio(steps, wall), "real_time_factor": _ratio(world.time - sim0, wall),
         },
     }
 
@@ -78,22 +90,30 @@ def _print(result: dict) -> None:
           f"{'sensor x':>10}{'worst/25ms':>11}")
     for cam, r in result["cameras"].items():
         print(f"{cam:<10}{r['rgb_front_ms']:>10.1f}{r['rgb_raking_ms']:>11.1f}{r['rgb_raw_front_ms']:>10.1f}"
-              f"{r['depth_ms']:>8.1f}{r['seg_ms']:>8.1f}{r['sensor_overhead_ratio']:>10.2f}"
+              f"{r['depth_ms']:>8.1f}{r['seg_ms']:>8.1f}{fmt(r['sensor_overhead_ratio'], '>10.2f')}"
               f"{r['rgb_worst_vs_target_ratio']:>11.2f}")
     p = result["physics"]
-    print(f"physics: {p['steps_per_s']:.0f} steps/s with the arm and 10 parts "
-          f"({p['dofs']} dofs), real-time factor {p['real_time_factor']:.1f}x")
+    print(f"physics: {fmt(p['steps_per_s'], '.0f')} steps/s with the arm and 10 parts "
+          f"({p['dofs']} dofs), real-time factor {fmt(p['real_time_factor'], '.1f')}x")
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="cell bench render",
+                                description="rendering and physics speed of the cell")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=None, metavar="N",
+                   help=f"frames per measurement, 1 to {MAX_REPEATS} (default 30; 3 with --quick)")
+    p.add_argument("--quick", action="store_true",
+                   help="3 repeats and 200 physics steps (smoke test; --repeats overrides)")
+    return p
 
 
 def main(argv: list[str]) -> int:
-    p = argparse.ArgumentParser(prog="cell bench render", description=__doc__.splitlines()[0])
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--repeats", type=int, default=30, help="frames per measurement")
-    p.add_argument("--quick", action="store_true", help="few repeats and steps (smoke test)")
-    args = p.parse_args(argv)
-    result = run(repeats=3, steps=200) if args.quick else run(repeats=args.repeats)
+    args = parser().parse_args(argv)
+    repeats = args.repeats if args.repeats is not None else (3 if args.quick else 30)
+    result = run(repeats=repeats, steps=200) if args.quick else run(repeats=repeats)
     if args.json:
-        print(json.dumps(result, indent=2))
+        print(json.dumps(result, indent=2, allow_nan=False))
     else:
         _print(result)
     return 0

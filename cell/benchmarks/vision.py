@@ -15,6 +15,8 @@ the 95th percentile of the same (a crowded frame whose cluster of touching parts
 search fails to cut costs several times the median). ``again`` is the median of the same
 frames detected again back to back, with no render between them (the detector's own
 cost, as when a folder of images is processed). Ground truth is read here only, to score.
+A figure with no samples (no part matched, say) is ``None``: ``null`` in JSON, ``-`` in
+the table; never NaN.
 """
 
 from __future__ import annotations
@@ -27,14 +29,17 @@ import time
 import cv2
 import numpy as np
 
+from cell.benchmarks import fmt, int_in
 from cell.catalogue import KINDS, LIGHTING_PRESETS
 from cell.scenario import scenario_from_dict
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
 
-__all__ = ["SEED_BASE", "cold_start", "main", "run"]
+__all__ = ["MAX_SCENES", "SEED_BASE", "cold_start", "main", "parser", "run"]
 
 SEED_BASE = 900_000  # scenes use seeds SEED_BASE + i; tests use seeds below 1000
+MAX_SCENES = 100_000
+_MAX_SEED = 2**63 - 1  # the scenario's seed range
 _PARTS_PER_SCENE = 8
 _VIEW_X = 0.165  # half-range of part centres along the belt around the pick zone (m)
 _VIEW_Y = 0.045  # half-range across the belt (m)
@@ -207,6 +212,8 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
     """
     if not 1 <= parts <= 20:
         raise ValueError(f"parts: must be 1 to 20, got {parts}")
+    if not 1 <= scenes <= MAX_SCENES:
+        raise ValueError(f"scenes: must be 1 to {MAX_SCENES}, got {scenes}")
     unknown = [p for p in presets or () if p not in LIGHTING_PRESETS]
     if unknown or presets == []:
         raise ValueError(f"presets: unknown {unknown or 'none given'}; valid: "
@@ -305,23 +312,28 @@ def cold_start(seed: int = SEED_BASE) -> dict:
             "detect_s": float(detect), "process_s": process, "detections": int(n)}
 
 
+def _pct(values, q: float, scale: float = 1.0) -> float | None:
+    """The ``q``-th percentile of ``values`` times ``scale``; ``None`` if there are none."""
+    return float(np.percentile(values, q)) * scale if len(values) else None
+
+
 def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER_SCENE) -> dict:
     rows = {}
     for preset, s in stats.items():
         n = max(s["n"], 1)
-        pos = np.array(s["pos_err"]) * 1e3 if s["pos_err"] else np.array([np.nan])
-        yaw = np.degrees(np.array(s["yaw_err"])) if s["yaw_err"] else np.array([np.nan])
-        lat = float(np.median(s["latency"])) * 1e3
-        ren = float(np.median(s["render"])) * 1e3
+        pos = np.array(s["pos_err"]) * 1e3
+        yaw = np.degrees(np.array(s["yaw_err"]))
+        lat = _pct(s["latency"], 50, 1e3)
+        ren = _pct(s["render"], 50, 1e3)
         rows[preset] = {
             "parts": s["n"],
             "material_accuracy": s["material_ok"] / n,
             "material_wrong": s["material_wrong"],
             "material_unknown": s["material_unknown"],
             "kind_accuracy": s["kind_ok"] / n,
-            "position_p50_mm": float(np.percentile(pos, 50)),
-            "position_p95_mm": float(np.percentile(pos, 95)),
-            "yaw_p95_deg": float(np.percentile(yaw, 95)),
+            "position_p50_mm": _pct(pos, 50),
+            "position_p95_mm": _pct(pos, 95),
+            "yaw_p95_deg": _pct(yaw, 95),
             "false": s["false"],
             "missed": s["missed"],
             "recall": s["n"] / max(s["n"] + s["missed"], 1),
@@ -330,12 +342,11 @@ def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER
             "touching_pairs": s["touching_pairs"],
             "touching_split": s["touching_split"],
             "latency_ms": lat,
-            "latency_p95_ms": float(np.percentile(s["latency"], 95)) * 1e3,
-            "latency_per_part_ms": float(np.median(s["per_part"])) * 1e3,
-            "repeat_latency_ms": (float(np.median(s["again"])) * 1e3 if s.get("again")
-                                else float("nan")),
+            "latency_p95_ms": _pct(s["latency"], 95, 1e3),
+            "latency_per_part_ms": _pct(s["per_part"], 50, 1e3),
+            "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
             "render_ms": ren,
-            "latency_over_render": lat / ren if ren > 0 else float("nan"),
+            "latency_over_render": lat / ren if lat is not None and ren else None,
             "material_errors": sorted(set(s["material_errors"]))[:10],
             "kind_errors": sorted(set(s["kind_errors"]))[:10],
         }
@@ -354,12 +365,13 @@ def _print(report: dict) -> None:
     for preset, r in report["presets"].items():
         print(f"{preset:<8} {r['parts']:>5} {100 * r['material_accuracy']:>6.1f} "
               f"{r['material_wrong']:>5} {r['material_unknown']:>4} {100 * r['kind_accuracy']:>6.1f} "
-              f"{r['position_p50_mm']:>6.2f} {r['position_p95_mm']:>6.2f} {r['yaw_p95_deg']:>6.2f} "
+              f"{fmt(r['position_p50_mm'], '>6.2f')} {fmt(r['position_p95_mm'], '>6.2f')} "
+              f"{fmt(r['yaw_p95_deg'], '>6.2f')} "
               f"{r['false']:>5} {r['missed']:>4} {100 * r['recall']:>6.1f} "
               f"{r['touching_split']:>3}/{r['touching_pairs']:<3} "
-              f"{r['latency_ms']:>5.2f} {r['latency_p95_ms']:>5.2f} {r['repeat_latency_ms']:>5.2f} "
-              f"{r['latency_per_part_ms']:>5.2f} "
-              f"{r['latency_over_render']:>7.3f}")
+              f"{fmt(r['latency_ms'], '>5.2f')} {fmt(r['latency_p95_ms'], '>5.2f')} "
+              f"{fmt(r['repeat_latency_ms'], '>5.2f')} {fmt(r['latency_per_part_ms'], '>5.2f')} "
+              f"{fmt(r['latency_over_render'], '>7.3f')}")
     for preset, r in report["presets"].items():
         if r["material_errors"] or r["kind_errors"]:
             print(f"  {preset}: material errors {r['material_errors']} kind errors {r['kind_errors']}")
@@ -376,41 +388,51 @@ def _print(report: dict) -> None:
           "recall = parts found / parts fully in view")
 
 
-def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="cell bench vision", description=__doc__.split("\n")[0])
+def parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="cell bench vision",
+        description="the part detector scored against the simulator's ground truth, per lighting "
+        "preset")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--quick", action="store_true", help="2 scenes per preset (smoke test)")
-    parser.add_argument("--scenes", type=int, default=None,
-                        help="scenes per preset (default 30: 240 parts per preset)")
-    parser.add_argument("--seed-base", type=int, default=SEED_BASE,
-                        help=f"first scene seed (default {SEED_BASE}; at least 1000, tests use less)")
-    parser.add_argument("--parts", type=int, default=_PARTS_PER_SCENE,
-                        help=f"parts per scene (default {_PARTS_PER_SCENE}; 1 to 3 is a pick-zone "
-                        "frame)")
+    parser.add_argument("--quick", action="store_true",
+                        help="2 scenes per preset (smoke test; --scenes overrides)")
+    parser.add_argument("--scenes", type=int_in(1, MAX_SCENES), default=None, metavar="N",
+                        help=f"scenes per preset, 1 to {MAX_SCENES} (default 30: 240 parts per "
+                        "preset)")
+    parser.add_argument("--seed-base", type=int_in(1000, _MAX_SEED), default=SEED_BASE, metavar="N",
+                        help=f"first scene seed, 1000 to 2**63-1 less the scene count (default "
+                        f"{SEED_BASE}; tests use seeds below 1000)")
+    parser.add_argument("--parts", type=int_in(1, 20), default=_PARTS_PER_SCENE, metavar="N",
+                        help=f"parts per scene, 1 to 20 (default {_PARTS_PER_SCENE}; 1 to 3 is a "
+                        "pick-zone frame)")
     parser.add_argument("--cold", action="store_true",
                         help="also time a fresh process's first detection (imports included)")
-    parser.add_argument("--presets", default=None,
-                        help="comma-separated lighting presets (default: all: "
-                        f"{','.join(LIGHTING_PRESETS)}); a subset's frames carry other sensor "
-                        "noise than a full run's")
-    args = parser.parse_args(argv)
-    if not 1 <= args.parts <= 20:
-        parser.error("--parts must be 1 to 20")
+    parser.add_argument("--presets", default=None, metavar="P,P,...",
+                        help="comma-separated lighting presets, one or more of: "
+                        f"{', '.join(LIGHTING_PRESETS)} (default: all); a subset's frames carry "
+                        "other sensor noise than a full run's")
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    parser_ = parser()
+    args = parser_.parse_args(argv)
     presets = None
     if args.presets is not None:
         presets = [p.strip() for p in args.presets.split(",") if p.strip()]
         bad = [p for p in presets if p not in LIGHTING_PRESETS]
         if bad or not presets:
-            parser.error(f"--presets: unknown {', '.join(bad) or '(none given)'}; valid: "
-                         f"{', '.join(LIGHTING_PRESETS)}")
-    scenes = args.scenes or (2 if args.quick else 30)
-    if args.seed_base < 1000:
-        parser.error("--seed-base must be at least 1000 (seeds below are the tests')")
+            what = f"unknown {', '.join(bad)}; valid:" if bad else "give one or more of:"
+            parser_.error(f"argument --presets: {what} {', '.join(LIGHTING_PRESETS)}")
+    scenes = args.scenes if args.scenes is not None else (2 if args.quick else 30)
+    if args.seed_base > _MAX_SEED - (scenes - 1):
+        parser_.error(f"argument --seed-base: must be at most {_MAX_SEED - (scenes - 1)} with "
+                      f"{scenes} scenes (the last scene's seed is at most 2**63-1)")
     report = run(scenes=scenes, seed_base=args.seed_base, parts=args.parts, presets=presets)
     if args.cold:
         report["cold"] = cold_start(args.seed_base)
     if args.json:
-        print(json.dumps(report, indent=2))
+        print(json.dumps(report, indent=2, allow_nan=False))
     else:
         _print(report)
     return 0

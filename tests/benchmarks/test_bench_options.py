@@ -1,0 +1,159 @@
+"""``cell bench``: bad options are one error line and exit 2; no output ever holds NaN;
+``cell bench --help`` lists every benchmark's options (issue 12, items 10 and 13)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cell.benchmarks import pick, vision
+
+ROOT = Path(__file__).parent.parent.parent
+
+
+def _cell(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.run([sys.executable, "-m", "cell.cli", *args], capture_output=True,
+                          text=True, cwd=ROOT, env=env, timeout=300)
+
+
+def _strict_json(text: str) -> dict:
+    def reject(name: str):
+        raise AssertionError(f"{name} in the JSON output")
+
+    return json.loads(text, parse_constant=reject)
+
+
+# Each would run (small: one kind, one pose, --quick) if the option were accepted.
+@pytest.mark.parametrize(("args", "option"), [
+    (["pick", "--kinds"], "--kinds"),                                  # ZeroDivisionError
+    (["pick", "--kinds", "bolt", "--poses", "0"], "--poses"),          # ZeroDivisionError
+    (["pick", "--kinds", "bolt", "--poses", "-3"], "--poses"),         # 'parts.count' named
+    (["pick", "--kinds", "bolt", "--poses", "1", "--pose-noise-mm", "nan"], "--pose-noise-mm"),
+    (["pick", "--kinds", "bolt", "--poses", "1", "--pose-noise-mm", "-1"], "--pose-noise-mm"),
+    (["pick", "--kinds", "bolt", "--poses", "1", "--yaw-noise-deg", "inf"], "--yaw-noise-deg"),
+    (["pick", "--kinds", "bolt", "--poses", "1", "--seed", "-5"], "--seed"),
+    (["pick", "--kinds", "bolt", "--poses", "1", "--seed", "1" + "0" * 30], "--seed"),
+    (["vision", "--scenes", "-2"], "--scenes"),                        # IndexError
+    (["vision", "--scenes", "0", "--parts", "1", "--presets", "front"], "--scenes"),  # default
+    (["vision", "--scenes", "2", "--seed-base", str(2**63 - 1), "--presets", "front"],
+     "--seed-base"),
+    (["vision", "--scenes", "1", "--parts", "1", "--presets", ","], "--presets"),
+    (["render", "--quick", "--repeats", "0"], "--repeats"),            # NaN table
+    (["render", "--quick", "--repeats", "-1"], "--repeats"),
+])
+def test_a_bad_option_is_one_error_line_and_exit_2(args, option):
+    r = _cell("bench", *args)
+    assert r.returncode == 2, (r.returncode, r.stderr[-2000:])
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    errors = [ln for ln in r.stderr.splitlines() if "error:" in ln]
+    assert len(errors) == 1 and r.stderr.startswith("usage: cell bench "), r.stderr
+    assert errors[0].startswith(f"cell bench {args[0]}: error: argument {option}:"), errors[0]
+    assert "parts.count" not in r.stderr and "nan" not in r.stderr.lower().replace("'nan'", "")
+
+
+def test_list_options_name_their_valid_choices():
+    r = _cell("bench", "pick", "--kinds")
+    assert "washer, hex_nut, square_nut, bolt, l_bracket, disc" in r.stderr
+    r = _cell("bench", "pick", "--kinds", "gear")
+    assert r.returncode == 2 and "invalid choice: 'gear'" in r.stderr and "'washer'" in r.stderr
+    r = _cell("bench", "vision", "--presets", ",")
+    assert r.returncode == 2 and "front, back, raking" in r.stderr
+
+
+def test_each_help_states_the_ranges():
+    helps = {name: mod.parser().format_help() for name, mod in
+             (("pick", pick), ("vision", vision))}
+    for text in ("--poses N", "1 to 199", "0 to 100 mm", "0 to 180 deg", "washer, hex_nut"):
+        assert text in " ".join(helps["pick"].split()), text
+    for text in ("1 to 100000", "1 to 20", "1000 to 2**63-1", "front, back, raking"):
+        assert text in " ".join(helps["vision"].split()), text
+    from cell.benchmarks import render
+
+    assert "1 to 10000" in render.parser().format_help()
+
+
+def test_a_pick_with_no_finished_cycle_reports_null_and_dash(monkeypatch, capsys):
+    from cell.errors import CellError
+    from cell.robot.pick import PickPlace
+
+    def fail(self, target):
+        raise CellError("no cycle (test)")
+
+    monkeypatch.setattr(PickPlace, "run", fail)
+    assert pick.main(["--kinds", "bolt", "--poses", "1", "--json"]) == 0
+    out = _strict_json(capsys.readouterr().out)
+    row, overall = out["kinds"]["bolt"], out["overall"]
+    assert row["errors"] == ["no cycle (test)"]
+    for key in ("mean_cycle_s", "cycles_per_min", "ratio_to_optimal", "ratio_to_optimal_max",
+                "ik_ms_mean", "ik_ms_p95", "ik_iterations_mean"):
+        assert row[key] is None, key
+    for key in ("mean_cycle_s", "cycles_per_min", "ratio_to_optimal", "ik_ms_mean"):
+        assert overall[key] is None, key
+
+    assert pick.main(["--kinds", "bolt", "--poses", "1"]) == 0
+    table = capsys.readouterr().out
+    assert "nan" not in table.lower()
+    bolt = next(ln for ln in table.splitlines() if ln.startswith("bolt "))
+    assert bolt.split()[2:] == ["-"] * 7, bolt
+
+
+def _empty_stats(presets=("front",)) -> dict:
+    """A run's statistics where a frame was detected but no part was matched."""
+    return {p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0,
+                "kind_ok": 0, "false": 2, "missed": 1, "partial_ok": 0, "partial_wrong": 0,
+                "touching_pairs": 0, "touching_split": 0, "pos_err": [], "yaw_err": [],
+                "latency": [0.004], "again": [], "render": [0.0], "per_part": [0.004],
+                "material_errors": [], "kind_errors": []} for p in presets}
+
+
+def test_vision_figures_with_no_samples_are_null_and_dash(capsys):
+    report = vision._summarise(_empty_stats(), scenes=1, seed_base=vision.SEED_BASE, parts=1)
+    row = report["presets"]["front"]
+    for key in ("position_p50_mm", "position_p95_mm", "yaw_p95_deg", "repeat_latency_ms",
+                "latency_over_render"):
+        assert row[key] is None, key
+    assert row["latency_ms"] == pytest.approx(4.0)
+    _strict_json(json.dumps(report, allow_nan=False))
+    vision._print(report)
+    table = capsys.readouterr().out
+    assert "nan" not in table.lower()
+    line = next(ln for ln in table.splitlines() if ln.startswith("front "))
+    assert line.split()[6:9] == ["-", "-", "-"], line  # p50mm, p95mm, yaw95
+
+
+def test_vision_smallest_run_json_is_strict(capsys):
+    assert vision.main(["--scenes", "1", "--parts", "1", "--presets", "front", "--json"]) == 0
+    report = _strict_json(capsys.readouterr().out)
+    assert report["scenes_per_preset"] == 1 and list(report["presets"]) == ["front"]
+
+
+def test_fmt_prints_a_dash_of_the_same_width():
+    from cell.benchmarks import fmt
+
+    assert fmt(None, ">8.3f") == "       -" and fmt(float("nan"), ".1f") == "-"
+    assert fmt(1.5, ">6.2f") == "  1.50"
+
+
+def test_bench_help_lists_every_benchmark_and_its_options():
+    r = _cell("bench", "--help")
+    assert r.returncode == 0 and r.stderr == ""
+    for name in ("render", "vision", "pick"):
+        assert f"usage: cell bench {name}" in r.stdout, name
+    for option in ("--repeats", "--scenes", "--seed-base", "--parts", "--presets", "--cold",
+                   "--poses", "--pose-noise-mm", "--yaw-noise-deg", "--kinds"):
+        assert option in r.stdout, option
+    assert "cell bench NAME --help" in r.stdout and "``" not in r.stdout
+
+
+def test_bench_with_no_name_prints_usage_to_stderr_and_exits_2():
+    r = _cell("bench")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith("usage: cell bench ") and "error: name a benchmark" in r.stderr
+    r = _cell("bench", "fly")
+    assert r.returncode == 2 and r.stdout == "" and "valid: render, vision, pick" in r.stderr

@@ -30,6 +30,9 @@ axis, looking along the tool axis (+z of the flange), with the cup out of its vi
 
 Geoms of the arm use ``contype=2, conaffinity=1``: they collide with ordinary world
 geoms (contype 1) but not with each other.
+
+``build_arm(flange_board=True)`` (``add_arm`` too) mounts the eye-to-hand calibration
+plate of ``cell.sim.flange_board`` on the tool; without it the arm is as described here.
 """
 
 from __future__ import annotations
@@ -39,9 +42,10 @@ import numpy as np
 
 from cell.errors import SimError
 from cell.sim import layout
+from cell.sim.flange_board import add_flange_board
 
 __all__ = [
-        "DH",
+    "DH",
     "EFFORT",
     "HOME",
     "JOINT_NAMES",
@@ -259,12 +263,14 @@ def _add_servos(spec: mujoco.MjSpec) -> None:
         act.ctrlrange = [0.0, 1.0]
 
 
-def build_arm(*, tool: str = "suction") -> mujoco.MjSpec:
+def build_arm(*, tool: str = "suction", flange_board: bool = False) -> mujoco.MjSpec:
     """The arm alone as a standalone spec: root body ``base`` at the identity pose.
 
     Parameters
     ----------
     tool : the end effector; only ``"suction"`` is built (no parallel gripper yet).
+    flange_board : mount the calibration plate of ``cell.sim.flange_board`` on the tool
+        (body ``flange_board``); off, the arm is built exactly as without the option.
 
     Raises ``SimError`` for an unknown tool, listing the valid ones.
     """
@@ -276,6 +282,9 @@ def build_arm(*, tool: str = "suction") -> mujoco.MjSpec:
     base = spec.worldbody.add_body(name="base")
     wrist3 = _add_links(base)
     _add_suction_tool(spec, wrist3)
+    if flange_board:
+        add_flange_board(spec, spec.body("tool"), contype=_ARM_CONTYPE,
+                         conaffinity=_ARM_CONAFFINITY)
     _add_servos(spec)
     key = spec.add_key(name="home")
     key.qpos = list(HOME)
@@ -283,14 +292,16 @@ def build_arm(*, tool: str = "suction") -> mujoco.MjSpec:
     return spec
 
 
-def add_arm(world_spec: mujoco.MjSpec, *, tool: str = "suction", prefix: str = "arm/") -> None:
+def add_arm(world_spec: mujoco.MjSpec, *, tool: str = "suction", prefix: str = "arm/",
+            flange_board: bool = False) -> None:
     """Attach a copy of the arm to ``world_spec`` at ``layout.ARM_BASE``.
 
+    ``flange_board`` mounts the calibration plate (``build_arm``).
     Every name gets ``prefix`` (``arm/shoulder_pan``, ``arm/tcp``, ``arm/wrist_camera``).
     The arm's home keyframe is not carried over (keyframes are per model): start the
     arm with ``qpos`` and ``ctrl`` at ``HOME``.
     """
-    arm = build_arm(tool=tool)
+    arm = build_arm(tool=tool, flange_board=flange_board)
     for key in list(arm.keys):
         arm.delete(key)
     frame = world_spec.worldbody.add_frame(pos=list(map(float, layout.ARM_BASE)))

@@ -11,7 +11,10 @@ import numpy as np
 
 from cell.sim import layout
 
-__all__ = ["add_bins", "add_table", "add_target", "target_corners_world"]
+__all__ = [
+    "add_bins", "add_checkerboard", "add_table", "add_target", "checkerboard_corners",
+    "target_corners_world",
+]
 
 _BOX = mujoco.mjtGeom.mjGEOM_BOX
 _BOARD_THICKNESS = 0.004
@@ -45,28 +48,65 @@ def add_bins(spec: mujoco.MjSpec) -> None:
             body.add_geom(name=f"bin_{name}_wall{i}", type=_BOX, size=size, pos=pos, rgba=rgba)
 
 
-def add_target(spec: mujoco.MjSpec) -> None:
-    """The checkerboard (body ``target``) flat on the table at ``layout.TARGET_CENTRE``.
+def add_checkerboard(
+    body, name: str, inner_corners: tuple[int, int], square: float, *,
+    thickness: float = _BOARD_THICKNESS, lift: float = _SQUARE_LIFT, back: float = 0.0,
+    contype: int = 1, conaffinity: int = 1, white=None, black=None,
+) -> None:
+    """A checkerboard in ``body``'s frame: a white board (geom ``<name>_board``) in the
+    xy plane facing +z, with black squares (``<name>_sq_<i>_<j>``, drawn only) on it.
 
-    ``TARGET_INNER_CORNERS`` = (8, 5) inner corners means 9 x 6 squares of
-    ``TARGET_SQUARE`` metres, inside a white margin one square wide.
+    ``inner_corners`` (nx, ny) inner corners means (nx + 1) x (ny + 1) squares of
+    ``square`` metres, centred on the body's z axis, inside a white margin one square
+    wide. The board's back face is at z = ``back``, its white face at ``back +
+    thickness``, the black squares' tops ``lift`` above that (no z-fighting). ``white``
+    and ``black`` are material names (else plain white and black ``rgba``).
     """
-    nx, ny = layout.TARGET_INNER_CORNERS
-    s = layout.TARGET_SQUARE
-    body = spec.worldbody.add_body(name="target", pos=layout.TARGET_CENTRE.tolist())
-    body.add_geom(name="target_board", type=_BOX,
-                  size=[(nx + 3) * s / 2, (ny + 3) * s / 2, _BOARD_THICKNESS / 2],
-                  pos=[0, 0, _BOARD_THICKNESS / 2], rgba=[0.95, 0.95, 0.95, 1])
-    z = _BOARD_THICKNESS + _SQUARE_LIFT / 2
+    nx, ny = inner_corners
+    s = square
+    board = body.add_geom(name=f"{name}_board", type=_BOX,
+                          size=[(nx + 3) * s / 2, (ny + 3) * s / 2, thickness / 2],
+                          pos=[0, 0, back + thickness / 2], contype=contype,
+                          conaffinity=conaffinity)
+    if white is None:
+        board.rgba = [0.95, 0.95, 0.95, 1]
+    else:
+        board.material = white
+    z = back + thickness + lift / 2
     for i in range(nx + 1):
         for j in range(ny + 1):
             if (i + j) % 2:
                 continue
             x = (i - nx / 2) * s
             y = (j - ny / 2) * s
-            body.add_geom(name=f"target_sq_{i}_{j}", type=_BOX,
-                          size=[s / 2, s / 2, _SQUARE_LIFT / 2], pos=[x, y, z],
-                          rgba=[0.03, 0.03, 0.03, 1], contype=0, conaffinity=0)
+            sq = body.add_geom(name=f"{name}_sq_{i}_{j}", type=_BOX,
+                               size=[s / 2, s / 2, lift / 2], pos=[x, y, z],
+                               contype=0, conaffinity=0)
+            if black is None:
+                sq.rgba = [0.03, 0.03, 0.03, 1]
+            else:
+                sq.material = black
+
+
+def checkerboard_corners(inner_corners: tuple[int, int], square: float) -> np.ndarray:
+    """Inner corners (N, 3) of a board of ``add_checkerboard`` in its corner plane
+    (z = 0), row-major in x then y: the order ``cv2.findChessboardCorners`` gives for
+    pattern size ``inner_corners`` when the board's x axis runs along the image rows."""
+    nx, ny = inner_corners
+    xs = (np.arange(nx) - (nx - 1) / 2) * square
+    ys = (np.arange(ny) - (ny - 1) / 2) * square
+    gx, gy = np.meshgrid(xs, ys)
+    return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
+
+
+def add_target(spec: mujoco.MjSpec) -> None:
+    """The checkerboard (body ``target``) flat on the table at ``layout.TARGET_CENTRE``.
+
+    ``TARGET_INNER_CORNERS`` = (8, 5) inner corners means 9 x 6 squares of
+    ``TARGET_SQUARE`` metres, inside a white margin one square wide.
+    """
+    body = spec.worldbody.add_body(name="target", pos=layout.TARGET_CENTRE.tolist())
+    add_checkerboard(body, "target", layout.TARGET_INNER_CORNERS, layout.TARGET_SQUARE)
 
 
 def target_corners_world() -> np.ndarray:
@@ -74,13 +114,12 @@ def target_corners_world() -> np.ndarray:
 
     Ground truth of the board's geometry: for scoring and for building the object points
     a calibration uses (a real user knows their board's square size and layout too).
+    The corners lie half the squares' lift above the white face: a black square stands
+    ``_SQUARE_LIFT`` proud of it, and seen at a slant its side wall widens it on one side,
+    so the edges a detector finds are those of its mid-height (on tool-down wrist-camera
+    views rendered with ``msaa=4``, detected corners come within 0.087 px RMS of these,
+    0.094 px of the top face's).
     """
-    nx, ny = layout.TARGET_INNER_CORNERS
-    s = layout.TARGET_SQUARE
-    xs = (np.arange(nx) - (nx - 1) / 2) * s
-    ys = (np.arange(ny) - (ny - 1) / 2) * s
-    gx, gy = np.meshgrid(xs, ys)
-    z = _BOARD_THICKNESS + _SQUARE_LIFT
-    pts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)], axis=1)
+    pts = checkerboard_corners(layout.TARGET_INNER_CORNERS, layout.TARGET_SQUARE)
+    pts[:, 2] = _BOARD_THICKNESS + _SQUARE_LIFT / 2
     return pts + layout.TARGET_CENTRE
-

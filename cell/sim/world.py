@@ -14,6 +14,12 @@ off-stage slot, floating, at rest and out of reach of every other geom, for the 
 the run. So nothing piles up past the belt, the contact set holds only the parts on
 stage, and a run's cost grows linearly with its length.
 
+For the overhead camera's eye-to-hand calibration, ``World.build(...,
+flange_board=True, msaa=4)`` mounts a checkerboard plate on the tool
+(``cell.sim.flange_board``) and renders with 4 samples per pixel; ``hold_arm(q)`` puts
+the arm at joint angles ``q``, held there; ``cell.sim.board_poses`` proposes the poses.
+Both options are off by default, when the model is the one built without them.
+
 Randomness: one ``np.random.SeedSequence(scenario.seed)`` gives independent streams for
 the part sequence and for the sensor noise, so rendering more or fewer frames never
 changes which parts come.
@@ -37,11 +43,12 @@ from cell.sim.arm import HOME, JOINT_NAMES, add_arm
 from cell.sim.cameras import CameraRig, Frame, add_overhead_camera, true_camera_model
 from cell.sim.conveyor import Conveyor, add_conveyor
 from cell.sim.fixtures import add_bins, add_table, add_target
+from cell.sim.flange_board import corners_in_flange
 from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
 from cell.sim.parts import add_part, add_part_materials
 from cell.sim.sensor import SensorModel
 
-__all__ = ["CAMERAS", "PartInfo", "World", "build_spec"]
+__all__ = ["CAMERAS", "MSAA_MAX", "PartInfo", "World", "build_spec"]
 
 CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
@@ -75,10 +82,17 @@ def _draw_sequence(scenario: Scenario, rng: np.random.Generator) -> list[tuple[s
     ]
 
 
+MSAA_MAX = 16  # the most multisamples per pixel World.build takes (GL drivers may cap it)
+
+
 def build_spec(
-    scenario: Scenario, sequence: list[tuple[str, str]], *, arm: bool = True
+    scenario: Scenario, sequence: list[tuple[str, str]], *, arm: bool = True,
+    flange_board: bool = False, msaa: int = 0,
 ) -> mujoco.MjSpec:
-    """The cell's ``MjSpec``: furniture, lights, cameras, the arm and one body per part."""
+    """The cell's ``MjSpec``: furniture, lights, cameras, the arm and one body per part.
+
+    ``flange_board`` mounts the calibration plate on the arm's tool (needs ``arm``);
+    ``msaa`` sets the renderers' multisamples per pixel (``World.build``)."""
     spec = mujoco.MjSpec()
     spec.modelname = "cell"
     spec.option.timestep = layout.TIMESTEP
@@ -88,9 +102,10 @@ def build_spec(
     vis.global_.offwidth = max(640, scenario.camera.width)
     vis.global_.offheight = max(480, scenario.camera.height)
     vis.map.znear = 0.01
-    # No multisampling: on the CPU (llvmpipe) renderer it costs 40 % of a frame, and a
-    # part's centroid averages over hundreds of edge pixels anyway (README: rendering).
-    vis.quality.offsamples = 0
+    # No multisampling by default: on the CPU (llvmpipe) renderer it costs 40 % of a
+    # frame, and a part's centroid averages over hundreds of edge pixels anyway (README:
+    # rendering). A calibration's corners want it (``World.build(msaa=4)``).
+    vis.quality.offsamples = msaa
     add_table(spec)
     add_conveyor(spec)
     add_bins(spec)
@@ -99,7 +114,7 @@ def build_spec(
     add_overhead_camera(spec, fovy=scenario.camera.fovy)
     add_part_materials(spec)
     if arm:
-        add_arm(spec)
+        add_arm(spec, flange_board=flange_board)
     for i, (kind, finish) in enumerate(sequence, start=1):
         body = add_part(spec, f"part_{i}", kind, finish, _offstage_slot(i))
         body.gravcomp = 1.0
@@ -112,22 +127,32 @@ class World:
     Attributes: ``model``, ``data`` (MuJoCo), ``scenario``, ``parts`` (every part of the
     run, spawned or not), ``spawned`` (how many are out), ``caught_ids`` (the parts that
     fell off the belt's end into the catch bin, in order; ``caught`` counts them),
-    ``conveyor`` (belt control), ``lighting`` (the active preset).
+    ``conveyor`` (belt control), ``lighting`` (the active preset), ``has_arm``,
+    ``has_flange_board`` (the calibration plate of ``cell.sim.flange_board`` is mounted).
     """
 
-    def __init__(self, scenario: Scenario, *, arm: bool = True) -> None:
+    def __init__(self, scenario: Scenario, *, arm: bool = True,
+                 flange_board: bool = False, msaa: int = 0) -> None:
+        if flange_board and not arm:
+            raise SimError("the flange board needs the arm: build with arm=True")
+        if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or \
+                not 0 <= msaa <= MSAA_MAX:
+            raise SimError(f"msaa must be an integer in 0..{MSAA_MAX} (multisamples per "
+                           f"pixel), got {msaa!r}")
         self.scenario = scenario
         seeds = np.random.SeedSequence(scenario.seed).spawn(2)
         self.rng = np.random.default_rng(seeds[0])  # part sequence and spawn poses
         self._sensor_rng = np.random.default_rng(seeds[1])
         sequence = _draw_sequence(scenario, self.rng)
-        self.spec = build_spec(scenario, sequence, arm=arm)
+        self.spec = build_spec(scenario, sequence, arm=arm, flange_board=flange_board,
+                               msaa=int(msaa))
         try:
             self.model = self.spec.compile()
         except Exception as exc:  # MuJoCo raises ValueError with its compiler message
             raise SimError(f"the cell's model does not compile: {exc}") from exc
         self.data = mujoco.MjData(self.model)
         self.has_arm = arm
+        self.has_flange_board = flange_board
         self.parts: list[PartInfo] = []
         for i, (kind, finish) in enumerate(sequence, start=1):
             m = MATERIALS[finish]
@@ -157,9 +182,80 @@ class World:
             self.data.ctrl[self.model.actuator(f"arm/{name}").id] = q
 
     @classmethod
-    def build(cls, scenario: Scenario, *, arm: bool = True) -> World:
-        """Build the world of ``scenario``; ``arm=False`` leaves the robot out."""
-        return cls(scenario, arm=arm)
+    def build(cls, scenario: Scenario, *, arm: bool = True, flange_board: bool = False,
+              msaa: int = 0) -> World:
+        """Build the world of ``scenario``; ``arm=False`` leaves the robot out.
+
+        ``flange_board=True`` mounts the calibration plate on the tool (eye-to-hand
+        calibration; ``cell.sim.flange_board``). ``msaa`` (0..16) renders with that many
+        samples per pixel (MuJoCo's ``offsamples``; the CPU renderer takes at most 4), as
+        a real sensor integrates light over each pixel: a checkerboard's corners then
+        come within about 0.1 px RMS of the truth instead of about 0.3 px (hard-stepped
+        edges), at about 1.6 times the render time. Both off by default, when the model
+        is exactly the one built without them.
+        """
+        return cls(scenario, arm=arm, flange_board=flange_board, msaa=msaa)
+
+    # --- arm --------------------------------------------------------------------------
+    def _require_arm(self, what: str) -> None:
+        if not self.has_arm:
+            raise SimError(f"{what}: this world has no arm (built with arm=False)")
+
+    def arm_joint_positions(self) -> np.ndarray:
+        """The arm's joint readings (6,) rad, shoulder_pan to wrist_3 (the encoders)."""
+        self._require_arm("arm_joint_positions")
+        m = self.model
+        return np.array([self.data.qpos[m.joint(f"arm/{n}").qposadr[0]] for n in JOINT_NAMES])
+
+    def hold_arm(self, q: np.ndarray) -> None:
+        """Put the arm at joint angles ``q`` (6,) rad, at rest, with its servos holding it
+        there (position references ``q``, velocity references and feed-forward 0), and
+        update every pose, so the next render shows it there.
+
+        A placement, not a motion: check the way there for collisions yourself (the IK's
+        ``collides``). The servos and the gravity compensation hold the arm still while
+        the world steps on (its joints drift by under 1e-6 rad). Raises ``SimError``
+        without an arm, or for a ``q`` of the wrong shape, not finite or out of the
+        joints' ranges.
+        """
+        self._require_arm("hold_arm")
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape != (len(JOINT_NAMES),) or not np.all(np.isfinite(q)):
+            raise SimError(f"hold_arm: q must be {len(JOINT_NAMES)} finite joint angles (rad), "
+                           f"got {np.array2string(q, precision=4)}")
+        m, d = self.model, self.data
+        for i, (name, qi) in enumerate(zip(JOINT_NAMES, q, strict=True)):
+            jnt = m.joint(f"arm/{name}")
+            lo, hi = m.jnt_range[jnt.id]
+            if not lo <= qi <= hi:
+                raise SimError(f"hold_arm: joint {i} ({name}) at {qi:.4f} rad is out of its "
+                               f"range [{lo:.4f}, {hi:.4f}]")
+            d.qpos[jnt.qposadr[0]] = qi
+            d.qvel[jnt.dofadr[0]] = 0.0
+            d.qacc_warmstart[jnt.dofadr[0]] = 0.0
+            d.ctrl[m.actuator(f"arm/{name}").id] = qi
+            d.ctrl[m.actuator(f"arm/{name}_vel").id] = 0.0
+            d.ctrl[m.actuator(f"arm/{name}_ff").id] = 0.0
+        mujoco.mj_forward(m, d)
+
+    def flange_pose(self) -> np.ndarray:
+        """GROUND TRUTH, for scoring only: ``T_world_flange`` (4x4, metres) now. The arm's
+        base frame is the world frame (``layout.ARM_BASE`` is the origin)."""
+        self._require_arm("flange_pose")
+        site = self.data.site("arm/flange")
+        T = np.eye(4)
+        T[:3, :3] = site.xmat.reshape(3, 3)
+        T[:3, 3] = site.xpos
+        return T
+
+    def flange_board_corners_world(self) -> np.ndarray:
+        """GROUND TRUTH, for scoring only: the flange board's inner corners (N, 3) in the
+        world now (metres), in ``cell.sim.flange_board.board_corners`` order."""
+        if not self.has_flange_board:
+            raise SimError("flange_board_corners_world: no flange board (build the world "
+                           "with flange_board=True)")
+        T = self.flange_pose()
+        return corners_in_flange() @ T[:3, :3].T + T[:3, 3]
 
     # --- time -------------------------------------------------------------------------
     @property

@@ -23,7 +23,7 @@ import numpy as np
 
 from cell.errors import CalibrationError
 
-__all__ = ["MAX_FILE_BYTES", "MAX_SIDE", "TOLERANCE", "CameraModel"]
+__all__ = ["MAX_FILE_BYTES", "MAX_SIDE", "TOLERANCE", "CameraModel", "check_camera_fields", "read_json_file"]
 
 TOLERANCE = 1e-6  # absolute: |R^T R - I|, |det R - 1| and the fixed rows of K and T
 MAX_SIDE = 1 << 16  # pixels: the largest width or height of a camera model
@@ -120,13 +120,37 @@ class CameraModel:
         where = f"camera file {str(path)!r}"
         return cls.from_dict(_read_json(path, where), where=where)
 
+    @classmethod
+    def from_calibration(cls, path: str | Path, name: str, *,
+                         T_base_flange: np.ndarray | None = None) -> CameraModel:
+        """The model of camera ``name`` in a calibration file (``cell calibrate --out``).
 
-def _read_json(path: Path, where: str) -> object:
+        The file is read and checked by :func:`cell.calib.load_calibration` (every field,
+        as here). The cell's world frame is the robot's base frame. A fixed camera's
+        ``T_world_camera`` is its ``T_base_camera``; a wrist camera's pose moves with the
+        arm, so it needs the flange pose at the time of the image, ``T_base_flange``
+        (4x4, m), and is ``T_base_flange @ T_flange_camera``. A ``CalibrationError`` names
+        the file and what is missing or wrong.
+        """
+        from cell.calib.calfile import load_calibration  # (calib depends on this module)
+
+        entry = load_calibration(path).camera(name)
+        return entry.camera_model(T_base_flange=T_base_flange)
+
+
+def read_json_file(path: str | Path, *, kind: str = "camera file") -> object:
+    """The JSON value in the file ``path``: a ``CalibrationError`` starting with ``kind``
+    and the file's name for a missing, unreadable, oversized, non-UTF-8 or non-JSON file."""
+    path = Path(path)
+    return _read_json(path, f"{kind} {str(path)!r}", kind=kind)
+
+
+def _read_json(path: Path, where: str, *, kind: str = "camera file") -> object:
     """The JSON value in ``path``; ``where`` starts every error message."""
     try:
         info = path.stat()
     except FileNotFoundError:
-        raise CalibrationError(f"no such camera file: {str(path)!r}") from None
+        raise CalibrationError(f"no such {kind}: {str(path)!r}") from None
     except OSError as exc:
         raise CalibrationError(f"{where}: cannot read it ({exc.strerror})") from None
     if stat.S_ISDIR(info.st_mode):
@@ -134,7 +158,7 @@ def _read_json(path: Path, where: str) -> object:
     if not stat.S_ISREG(info.st_mode):
         raise CalibrationError(f"{where}: not a regular file")
     if info.st_size > MAX_FILE_BYTES:
-        raise CalibrationError(f"{where}: {info.st_size} bytes, too large for a camera file "
+        raise CalibrationError(f"{where}: {info.st_size} bytes, too large for a {kind} "
                                f"(at most {MAX_FILE_BYTES})")
     try:
         raw = path.read_bytes()
@@ -165,14 +189,24 @@ def _fields(data: object) -> tuple:
     return data["width"], data["height"], data["K"], data.get("dist", [0.0] * 5), data["T_world_camera"]
 
 
-def _checked(width: object, height: object, K: object, dist: object, T: object) -> tuple:
+def check_camera_fields(width: object, height: object, K: object, dist: object, pose: object, *,
+                        pose_name: str = "T_world_camera") -> tuple:
+    """The five fields of a camera (image size, ``K``, ``dist`` and a pose named
+    ``pose_name``), checked as the module docstring says and converted (int, int, float64
+    arrays); a ``CalibrationError`` naming the field otherwise. Calibration files reuse it
+    for ``T_flange_camera`` and ``T_base_camera``."""
+    return _checked(width, height, K, dist, pose, pose_name)
+
+
+def _checked(width: object, height: object, K: object, dist: object, T: object,
+             pose_name: str = "T_world_camera") -> tuple:
     """The five fields, checked and converted (int, int, float64 arrays)."""
     width, height = _side("width", width), _side("height", height)
     K = _array("K", K, (3, 3))
     dist = _array("dist", dist, (5,))
-    T = _array("T_world_camera", T, (4, 4))
+    T = _array(pose_name, T, (4, 4))
     _check_intrinsics(K)
-    _check_pose(T)
+    _check_pose(T, pose_name)
     return width, height, K, dist, T
 
 
@@ -231,17 +265,17 @@ def _check_intrinsics(K: np.ndarray) -> None:
         raise CalibrationError(f"'K[1][0]' must be 0 (K is upper triangular), got {K[1, 0]}")
 
 
-def _check_pose(T: np.ndarray) -> None:
+def _check_pose(T: np.ndarray, name: str = "T_world_camera") -> None:
     if not np.abs(T[3] - [0.0, 0.0, 0.0, 1.0]).max() <= TOLERANCE:
-        raise CalibrationError(f"'T_world_camera[3]' (bottom row) must be [0, 0, 0, 1], got {_row(T[3])}")
+        raise CalibrationError(f"'{name}[3]' (bottom row) must be [0, 0, 0, 1], got {_row(T[3])}")
     R = T[:3, :3]
     with np.errstate(over="ignore", invalid="ignore"):  # R of 1e308: off is inf or nan, refused
         off = float(np.abs(R.T @ R - np.eye(3)).max())
     if not off <= TOLERANCE:
-        raise CalibrationError(f"'T_world_camera' rotation (top-left 3x3) is not orthonormal: "
+        raise CalibrationError(f"'{name}' rotation (top-left 3x3) is not orthonormal: "
                                f"max |R^T R - I| = {off:.3g}, tolerance {TOLERANCE:g}")
     if not np.linalg.det(R) > 0:  # orthonormal, so det is -1: a mirror image, not a rotation
-        raise CalibrationError("'T_world_camera' rotation (top-left 3x3) is a reflection: "
+        raise CalibrationError(f"'{name}' rotation (top-left 3x3) is a reflection: "
                                "det = -1, must be +1")
 
 

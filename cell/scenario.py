@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, escape, override_source, setting, show
 from cell.errors import ScenarioError
@@ -104,6 +105,7 @@ class Scenario:
     sensor: SensorSettings = setting(SensorSettings())
     robot: RobotSettings = setting(RobotSettings())
     vision: VisionSettings = setting(VisionSettings())
+    calibration: CalibrationSettings = setting(CalibrationSettings())
 
 
 def scenario_from_dict(

@@ -11,11 +11,11 @@ table).
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import math
 import sys
-from collections.abc import Callable
+
+from cell.options import float_in, int_in  # (re-exported: the benchmarks' option types)
 
 __all__ = ["BENCHMARKS", "fmt", "float_in", "int_in", "main"]
 
@@ -26,41 +26,6 @@ BENCHMARKS: dict[str, str] = {
 }
 
 _USAGE = f"usage: cell bench {{{','.join(BENCHMARKS)}}} [options]"
-
-
-def int_in(lo: int, hi: int) -> Callable[[str], int]:
-    """An argparse ``type``: an integer from ``lo`` to ``hi`` (inclusive)."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text.strip())
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"must be an integer from {lo} to {hi}, got {text!r}") from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"must be {lo} to {hi}, got {value}")
-        return value
-
-    parse.__name__ = "integer"  # (named in argparse's own messages)
-    return parse
-
-
-def float_in(lo: float, hi: float) -> Callable[[str], float]:
-    """An argparse ``type``: a finite number from ``lo`` to ``hi`` (inclusive)."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except (ValueError, OverflowError):
-            raise argparse.ArgumentTypeError(f"must be a number from {lo:g} to {hi:g}, "
-                                             f"got {text!r}") from None
-        if not math.isfinite(value) or not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"must be a finite number from {lo:g} to {hi:g}, "
-                                             f"got {text!r}")
-        return value
-
-    parse.__name__ = "number"
-    return parse
 
 
 def fmt(value: float | None, spec: str) -> str:

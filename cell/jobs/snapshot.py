@@ -36,6 +36,7 @@ import numpy as np
 
 from cell.cli import printable
 from cell.errors import CellError, SimError
+from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario
 from cell.sim.world import World
 
@@ -66,14 +67,6 @@ def truth_rows(world: World) -> list[dict]:
 
 # --- options ----------------------------------------------------------------------------
 
-class _Parser(argparse.ArgumentParser):
-    """argparse whose error line echoes the user's strings escaped."""
-
-    def error(self, message: str):
-        self.print_usage(sys.stderr)
-        self.exit(2, f"{self.prog}: error: {printable(message)}\n")
-
-
 def _seconds(text: str) -> float:
     try:
         value = float(text)
@@ -85,22 +78,11 @@ def _seconds(text: str) -> float:
     return value + 0.0  # -0 becomes 0
 
 
-def _seed(text: str) -> int:
-    lo, hi = _SEED["lo"], _SEED["hi"]
-    try:
-        value = int(text)
-    except ValueError:
-        value = None
-    if value is None or not lo <= value <= hi:
-        raise argparse.ArgumentTypeError(f"must be an integer in [{lo}, {hi}], got {text!r}")
-    return value
-
-
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="cell snapshot", description=__doc__.splitlines()[0])
+    p = Parser(prog="cell snapshot", description=__doc__.splitlines()[0])
     p.add_argument("scenario", help="scenario TOML file")
     p.add_argument("--camera", default="overhead", choices=("overhead", "wrist"))
-    p.add_argument("--seed", type=_seed, default=None, metavar="N",
+    p.add_argument("--seed", type=int_in(int(_SEED["lo"]), int(_SEED["hi"])), default=None, metavar="N",
                    help=f"override the scenario's seed ({_SEED['lo']} to {_SEED['hi']})")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario key (dotted for sections); repeatable")

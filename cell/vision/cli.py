@@ -1,7 +1,10 @@
 """``cell detect IMAGE --camera camera.json``: run the part detector on any image.
 
 The camera file is the ``camera.json`` that ``cell snapshot`` writes (width, height, K,
-dist, T_world_camera in OpenCV axes), or a user's own with the same keys. Detector
+dist, T_world_camera in OpenCV axes), or a user's own with the same keys, or a
+calibration file that ``cell calibrate`` writes, with ``--camera-name NAME`` to pick its
+camera (a fixed camera: a wrist camera's pose depends on the arm's, which an image file
+does not carry). Detector
 settings come from the ``[vision]`` section of ``--scenario FILE`` (defaults without
 one), then ``--set key=value`` overrides: ``vision.threshold_method=otsu``, or simply
 ``threshold_method=otsu`` (a key of the vision section needs no prefix).
@@ -27,8 +30,9 @@ import cv2
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from cell.camera import CameraModel
-from cell.errors import VisionError
+from cell.calib.calfile import SCHEMA
+from cell.camera import CameraModel, read_json_file
+from cell.errors import CalibrationError, VisionError
 from cell.scenario import load_scenario, scenario_from_dict
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
@@ -42,7 +46,10 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="cell detect", description=__doc__.splitlines()[0])
     p.add_argument("image", help="image file (PNG, JPEG, ...), read as RGB; its size must be the "
                    f"camera's, at most {MAX_PIXELS:,} pixels")
-    p.add_argument("--camera", required=True, help="camera.json with K, dist, T_world_camera")
+    p.add_argument("--camera", required=True,
+                   help="camera.json with K, dist, T_world_camera; or a calibration file with --camera-name")
+    p.add_argument("--camera-name", default=None, metavar="NAME",
+                   help="the camera to use from a calibration file (cell calibrate --out)")
     p.add_argument("--scenario", default=None, help="scenario TOML whose [vision] section to use")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a vision setting (vision.KEY=VALUE or KEY=VALUE); repeatable")
@@ -64,7 +71,7 @@ def main(argv: list[str]) -> int:
         scenario = load_scenario(args.scenario, overrides=overrides)
     else:
         scenario = scenario_from_dict({}, overrides=overrides)
-    camera = CameraModel.load(args.camera)
+    camera = _camera(args.camera, args.camera_name)
     path = Path(args.image)
     rgb = _read_image(path, camera)
     detector = PartDetector(scenario.vision)
@@ -87,6 +94,20 @@ def main(argv: list[str]) -> int:
               f"{d.material_confidence:>5.2f} {d.centroid[0]:>7.1f} {d.centroid[1]:>7.1f} "
               f"{x:>8} {y:>8} {d.yaw * 57.29578:>8.1f} {str(d.partial):>7}")
     return 0
+
+
+def _camera(path: str, name: str | None) -> CameraModel:
+    """The camera model of ``--camera`` (and ``--camera-name`` for a calibration file)."""
+    if name is not None:
+        return CameraModel.from_calibration(path, name)
+    data = read_json_file(path, kind="camera file")
+    if isinstance(data, dict) and data.get("schema") == SCHEMA:
+        names = [c.get("name") for c in data.get("cameras", []) if isinstance(c, dict)] \
+            if isinstance(data.get("cameras"), list) else []
+        shown = ", ".join(repr(n) for n in names if isinstance(n, str)) or "none"
+        raise CalibrationError(f"camera file {path!r} is a calibration file: name its camera with "
+                               f"--camera-name (cameras in it: {shown})")
+    return CameraModel.from_dict(data, where=f"camera file {path!r}")
 
 
 def _read_image(path: Path, camera: CameraModel) -> np.ndarray:

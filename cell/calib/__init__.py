@@ -1,0 +1,60 @@
+"""``cell.calib``: checkerboard capture, intrinsics, hand-eye, calibration files.
+
+The array side (board detection, intrinsics, hand-eye, refinement, files) works on numpy
+arrays and returns frozen dataclasses; it never imports MuJoCo. The robot side
+(``capture``, ``touch``, ``job``) drives the simulated cell: it moves the arm, reads the
+joints and renders the wrist camera. Ground truth is read only by the job's scoring
+(``report``, the touch test's landing point). Names load lazily, on first use, so that
+reading the scenario's ``[calibration]`` section does not import OpenCV or scipy.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_WHERE = {
+    "CalibrationSettings": "settings",
+    "Board": "board",
+    "BoardView": "board",
+    "detect_board": "board",
+    "Intrinsics": "intrinsics",
+    "calibrate_intrinsics": "intrinsics",
+    "HAND_EYE_METHODS": "handeye",
+    "HandEyeData": "handeye",
+    "HandEyeEstimate": "handeye",
+    "compare_hand_eye": "handeye",
+    "consistency": "handeye",
+    "solve_hand_eye": "handeye",
+    "Refinement": "refine",
+    "refine_hand_eye": "refine",
+    "CalibrationFile": "calfile",
+    "CameraCalibration": "calfile",
+    "load_calibration": "calfile",
+    "write_calibration": "calfile",
+    "ViewPlan": "planning",
+    "plan_views": "planning",
+    "Capture": "capture",
+    "CapturedView": "capture",
+    "Rig": "capture",
+    "capture_views": "capture",
+    "TouchResult": "touch",
+    "touch_test": "touch",
+    "WristCalibration": "wrist",
+    "calibrate_wrist": "wrist",
+    "solve_wrist": "wrist",
+    "CalibrationRun": "job",
+    "run_calibration": "job",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'cell.calib' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"cell.calib.{_WHERE[name]}"), name)
+
+
+def __dir__() -> list[str]:
+    return __all__

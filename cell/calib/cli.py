@@ -1,0 +1,102 @@
+"""``cell calibrate [SCENARIO] --out calib.json``: calibrate the cell's cameras in simulation.
+
+Captures views of the table's checkerboard with the wrist camera from robot poses, then
+calibrates its intrinsics, distortion and mount on the flange (every OpenCV hand-eye
+method, the best by a criterion that needs no ground truth, then a joint refinement),
+writes the calibration file atomically, and prints the errors against the simulator's
+ground truth (``--report FILE`` writes them as JSON). Progress over the poses goes to
+stderr when it is a terminal. Without SCENARIO the defaults are used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+from pathlib import Path
+
+from cell.calib.calfile import atomic_write_text, write_calibration
+from cell.calib.job import CAMERAS, run_calibration
+from cell.calib.report import format_wrist
+from cell.cli import printable
+from cell.errors import CalibrationError
+from cell.options import Parser, int_in
+from cell.scenario import Scenario, load_scenario, scenario_from_dict
+
+__all__ = ["main"]
+
+_SEED = {f.name: f for f in dataclasses.fields(Scenario)}["seed"].metadata
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = Parser(prog="cell calibrate", description=__doc__.splitlines()[0])
+    p.add_argument("scenario", nargs="?", default=None,
+                   help="scenario TOML file (default: the built-in defaults)")
+    p.add_argument("--camera", default="wrist", choices=CAMERAS,
+                   help="camera to calibrate (overhead and all need a board the arm holds: not yet)")
+    p.add_argument("--poses", type=int_in(3, 200), default=None, metavar="N",
+                   help="robot poses (views) to capture; sets calibration.poses")
+    p.add_argument("--seed", type=int_in(int(_SEED["lo"]), int(_SEED["hi"])), default=None, metavar="N",
+                   help="override the scenario's seed")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario key (dotted for sections); repeatable")
+    p.add_argument("--out", required=True, help="calibration file to write (JSON)")
+    p.add_argument("--report", default=None, help="also write the errors against ground truth as JSON")
+    p.add_argument("--no-touch", action="store_true", help="skip the touch test")
+    return p
+
+
+def _check_target(arg: str, option: str) -> Path:
+    """The file an option names, checked before the run: its folder exists and is writable,
+    and it is not a folder itself."""
+    if not arg:
+        raise CalibrationError(f"{option}: empty path; name a file")
+    path = Path(arg)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise CalibrationError(f"{option} {arg!r}: is a folder; name a file")
+    if not folder.is_dir():
+        raise CalibrationError(f"{option} {arg!r}: the folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CalibrationError(f"{option} {arg!r}: no write permission in {str(folder)!r}")
+    return path
+
+
+def _progress(stream) -> object:
+    if not stream.isatty():
+        return None
+
+    def show(done: int, total: int, note: str) -> None:
+        end = "\n" if done == total else ""
+        stream.write(f"\rcalibrate: view {done}/{total} ({note})\x1b[K{end}")
+        stream.flush()
+
+    return show
+
+
+def main(argv: list[str]) -> int:
+    """Run ``cell calibrate`` with ``argv``; 0 on success (a ``CellError`` goes to the caller)."""
+    args = _parser().parse_args(argv)
+    overrides = list(args.overrides) + ([f"calibration.poses={args.poses}"] if args.poses else [])
+    out = _check_target(args.out, "--out")
+    report_path = _check_target(args.report, "--report") if args.report else None
+    if args.scenario:
+        scenario = load_scenario(args.scenario, overrides=overrides, seed=args.seed)
+    else:
+        scenario = scenario_from_dict({}, overrides=overrides)
+        if args.seed is not None:
+            scenario = dataclasses.replace(scenario, seed=args.seed)
+    run = run_calibration(scenario, camera=args.camera, progress=_progress(sys.stderr),
+                          touch=not args.no_touch)
+    write_calibration(out, run.calibration)
+    if report_path is not None:
+        atomic_write_text(report_path, json.dumps(run.report, indent=2, allow_nan=False) + "\n",
+                          kind="report file")
+    print(f"scenario {printable(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
+          f"joint noise {scenario.calibration.joint_noise_deg:g} deg")
+    print(format_wrist(run.report["cameras"]["wrist"]))
+    print(f"\nwrote {printable(str(out))}" + (f" and {printable(str(report_path))}" if report_path else "")
+          + f" in {run.wall_s:.1f} s")
+    return 0

@@ -1,0 +1,131 @@
+"""The touch test: touch the point you see, through the calibration, and measure the miss.
+
+From a new view (a pose none of the calibration views used) the wrist camera finds the
+board; ``cv2.solvePnP`` with the calibrated intrinsics gives ``T_camera_board``, and the
+board corners' positions in the base frame follow through the calibrated hand-eye
+transform and the forward kinematics of the joint readings:
+
+    p_base = T_base_flange(q_read) T_flange_camera T_camera_board p_board
+
+The arm then drives its TCP (tool pointing down) to each chosen corner, ``TOUCH_STANDOFF``
+above the board along the board's seen normal so that the cup does not press on it,
+and the simulator's ground truth says where the TCP landed against where that point
+truly is (the same standoff above the true corner). This is the only place, besides the
+report, where ground truth is read, and it is read only to score.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import mujoco
+import numpy as np
+
+from cell.calib.board import Board, detect_board
+from cell.calib.calfile import CameraCalibration
+from cell.calib.capture import Rig, move_via_hub, reach_view
+from cell.calib.intrinsics import one_thread
+from cell.calib.planning import ViewPlan, look_at
+from cell.calib.transforms import invert, make_transform, transform_from_rvec
+from cell.errors import CalibrationError, IKError, MotionError
+from cell.robot.ik import tool_yaw
+
+__all__ = ["TOUCH_STANDOFF", "TouchResult", "touch_test", "touch_view"]
+
+TOUCH_STANDOFF = 0.005  # m: the TCP stops this far above the board's face
+_APPROACH = 0.05  # m: above the point before the last, vertical, move
+
+
+@dataclass(frozen=True, eq=False)
+class TouchResult:
+    """``targets`` (K, 3) where the calibration placed the touch points, ``landed`` (K, 3)
+    where the TCP came to rest (simulator truth), ``truth`` (K, 3) where the points are
+    (simulator truth), all base frame, metres; ``corner_ids`` the board corners touched."""
+
+    corner_ids: tuple[int, ...]
+    targets: np.ndarray
+    landed: np.ndarray
+    truth: np.ndarray
+
+    @property
+    def errors_mm(self) -> np.ndarray:
+        """Distance (mm) from each landed TCP to its true point."""
+        return 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+
+
+def _board_seen(rig: Rig, board: Board, camera: CameraCalibration, *, detector: str) -> np.ndarray:
+    """``T_base_board`` (4x4, m) from one new view of the board through the calibration."""
+    image, q_read = rig.hold_and_look(camera.name)
+    view = detect_board(image, board, first=detector)
+    if view is None:
+        raise CalibrationError("touch test: the board is not found in the touch view")
+    with one_thread():
+        ok, rvec, tvec = cv2.solvePnP(board.object_points(), view.corners, camera.K, camera.dist,
+                                      flags=cv2.SOLVEPNP_ITERATIVE)
+    if not ok:
+        raise CalibrationError("touch test: solvePnP failed on the touch view")
+    return rig.kin.pose(q_read, "flange") @ camera.pose @ transform_from_rvec(rvec, tvec)
+
+
+def _touch(rig: Rig, target: np.ndarray, yaw: float, what: str) -> np.ndarray:
+    """Drive the TCP to ``target`` (m, tool down, heading ``yaw``) from above; the TCP's
+    true resting position (m), read from the simulator (scoring only)."""
+    q_now = rig.driver.joint_positions()
+    above = target + np.array([0.0, 0.0, _APPROACH])
+    q_above = rig.ik.solve(above, yaw, rig.ik.seed_towards(above, yaw, q_now), what=f"above {what}")
+    q_at = rig.ik.solve(target, yaw, q_above, what=what)
+    rig.driver.move(q_above, what=f"above {what}")
+    rig.driver.move(q_at, what=what)
+    rig.driver.wait(0.3)
+    world = rig.world
+    mujoco.mj_forward(world.model, world.data)
+    landed = world.data.site("arm/tcp").xpos.copy()
+    rig.driver.move(q_above, what=f"above {what}")
+    return landed
+
+
+def touch_view(settings: object, rng: np.random.Generator) -> ViewPlan:
+    """The touch view: straight down over the board from the middle of the distance range,
+    aim and heading drawn from ``rng`` (a view of its own, none of the calibration views);
+    the flange pose by the rough camera mount of the settings."""
+    centre = np.asarray(settings.board_position, float)
+    aim = centre + np.append(rng.uniform(-0.02, 0.02, 2), 0.0)
+    distance = float(np.mean(settings.distance))
+    roll = float(rng.uniform(-0.5, 0.5))
+    T_base_camera = look_at(aim + np.array([0.0, 0.0, distance]), aim, roll=roll)
+    T_flange_camera_guess = make_transform(np.eye(3), settings.camera_offset)
+    return ViewPlan(T_base_camera, T_base_camera @ invert(T_flange_camera_guess), 0.0, 0.0,
+                    float(np.degrees(roll)), distance)
+
+
+def touch_test(rig: Rig, board: Board, camera: CameraCalibration, *, view: ViewPlan, detector: str,
+               true_corners: np.ndarray, corner_ids: tuple[int, ...] | None = None) -> TouchResult:
+    """Touch board corners seen from ``view`` through the calibrated ``camera`` (a wrist
+    camera: ``T_flange_camera``), detecting with ``detector`` first.
+
+    ``true_corners`` (N, 3) are the board's true corner positions in the base frame (m,
+    board index order; ground truth, for scoring only). ``corner_ids`` default to the
+    first, a middle and the last corner. Raises ``CalibrationError`` when the board is
+    not found or a motion fails.
+    """
+    if camera.pose_name != "T_flange_camera":
+        raise CalibrationError(f"touch test: camera {camera.name!r} is not on the flange")
+    nx, ny = board.inner_corners
+    ids = corner_ids or (0, (ny // 2) * nx + nx // 2, board.count - 1)
+    hub = rig.hub if rig.hub is not None else rig.driver.joint_positions()
+    try:
+        q_view = reach_view(rig, view, hub)
+        if isinstance(q_view, str):
+            raise CalibrationError(f"touch test: the touch view is {q_view}")
+        move_via_hub(rig, q_view, hub)
+        T_base_board = _board_seen(rig, board, camera, detector=detector)
+        P = board.object_points()[list(ids)]
+        targets = P @ T_base_board[:3, :3].T + T_base_board[:3, 3] + TOUCH_STANDOFF * T_base_board[:3, 2]
+        yaw = tool_yaw(T_base_board[:3, :3])
+        landed = np.array([_touch(rig, target, yaw, f"board corner {i}")
+                           for i, target in zip(ids, targets, strict=True)])
+    except (IKError, MotionError) as exc:
+        raise CalibrationError(f"touch test: {exc}") from None
+    truth = np.asarray(true_corners, float)[list(ids)] + np.array([0.0, 0.0, TOUCH_STANDOFF])
+    return TouchResult(tuple(int(i) for i in ids), targets, landed, truth)

@@ -1,0 +1,105 @@
+"""Intrinsics, every hand-eye method and the refinement on exact synthetic projections."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cell.calib.handeye import HAND_EYE_METHODS, HandEyeData, compare_hand_eye, consistency, solve_hand_eye
+from cell.calib.intrinsics import calibrate_intrinsics
+from cell.calib.refine import refine_hand_eye
+from cell.calib.transforms import mean_transform, pose_error, transform_from_rvec
+from cell.calib.wrist import solve_wrist
+from cell.errors import CalibrationError
+from tests.calib.synthetic import B_TRUE, BOARD, K_TRUE, SIZE, X_TRUE, views
+
+
+@pytest.fixture(scope="module")
+def exact():
+    return views(12, seed=5)
+
+
+def _data(v) -> HandEyeData:
+    return HandEyeData(BOARD.object_points(), v["corners"], v["T_base_flange"], v["T_camera_board"], K_TRUE,
+                       np.zeros(5))
+
+
+def test_intrinsics_from_exact_corners(exact):
+    intr = calibrate_intrinsics(list(exact["corners"]), BOARD, SIZE, terms=4)
+    assert pytest.approx(K_TRUE, rel=1e-6, abs=1e-4) == intr.K
+    assert np.abs(intr.dist).max() < 1e-4  # (OpenCV takes the corners as float32)
+    assert intr.rms < 1e-4 and intr.view_rms.shape == (12,)
+    for T, T_true in zip(intr.T_camera_board, exact["T_camera_board"], strict=True):
+        rot, trans = pose_error(T, T_true)
+        assert rot < 1e-4 and trans < 1e-6
+
+
+def test_distortion_is_recovered():
+    dist = np.array([-0.2, 0.05, 0.0, 0.0, 0.0])
+    v = views(12, seed=6, dist=dist)
+    intr = calibrate_intrinsics(list(v["corners"]), BOARD, SIZE, terms=2)
+    assert intr.dist[:2] == pytest.approx(dist[:2], rel=1e-3)
+
+
+@pytest.mark.parametrize("method", list(HAND_EYE_METHODS))
+def test_each_method_recovers_the_mount_from_exact_data(exact, method):
+    X = solve_hand_eye(_data(exact), method=method)
+    rot, trans = pose_error(X, X_TRUE)
+    assert rot < 1e-6 and trans < 1e-8
+
+
+def test_the_consistency_error_is_zero_at_the_truth_and_grows_off_it(exact):
+    data = _data(exact)
+    B, rms = consistency(data, X_TRUE)
+    assert rms < 1e-8 and pose_error(B, B_TRUE)[1] < 1e-10
+    off = X_TRUE @ transform_from_rvec([0.0, 0.002, 0.0], [0.001, 0.0, 0.0])
+    assert consistency(data, off)[1] > 0.1
+
+
+def test_the_refinement_does_not_make_exact_data_worse(exact):
+    data = _data(exact)
+    estimates, chosen = compare_hand_eye(data)
+    assert {e.method for e in estimates} == set(HAND_EYE_METHODS) and chosen in HAND_EYE_METHODS
+    best = next(e for e in estimates if e.method == chosen)
+    ref = refine_hand_eye(data, best.T_flange_camera)
+    rot, trans = pose_error(ref.T_flange_camera, X_TRUE)
+    assert rot < 1e-6 and trans < 1e-8 and ref.rms_px < 1e-6
+
+
+def test_the_refinement_recovers_from_a_perturbed_start_and_lowers_the_error(exact):
+    data = _data(exact)
+    start = X_TRUE @ transform_from_rvec([0.01, -0.01, 0.02], [0.002, -0.003, 0.001])
+    ref = refine_hand_eye(data, start)
+    assert ref.start_rms_px > 1.0 and ref.rms_px < 1e-6
+    rot, trans = pose_error(ref.T_flange_camera, X_TRUE)
+    assert rot < 1e-6 and trans < 1e-8
+    assert pose_error(ref.T_base_board, B_TRUE)[1] < 1e-8
+
+
+def test_with_pixel_noise_every_step_stays_close_and_the_refinement_fits_best():
+    v = views(20, seed=9, noise_px=0.05)
+    intr, estimates, chosen, ref = solve_wrist(v["corners"], v["T_base_flange"], BOARD, image_size=SIZE,
+                                               terms=4)
+    assert abs(intr.K[0, 0] / K_TRUE[0, 0] - 1) < 1e-3
+    best = next(e for e in estimates if e.method == chosen)
+    assert ref.rms_px <= best.consistency_px
+    for T in (best.T_flange_camera, ref.T_flange_camera):
+        rot, trans = pose_error(T, X_TRUE)
+        assert rot < 0.05 and trans < 5e-4
+
+
+def test_mean_transform_of_identical_poses_is_that_pose():
+    T = X_TRUE
+    assert mean_transform(np.stack([T, T, T])) == pytest.approx(T, abs=1e-12)
+
+
+def test_bad_inputs_are_calibration_errors(exact):
+    with pytest.raises(CalibrationError, match="unknown method 'X'"):
+        solve_hand_eye(_data(exact), method="X")
+    with pytest.raises(CalibrationError, match="at least 3 views"):
+        calibrate_intrinsics(list(exact["corners"][:2]), BOARD, SIZE)
+    with pytest.raises(CalibrationError, match="view 1 has corners of shape"):
+        calibrate_intrinsics([exact["corners"][0], exact["corners"][1][:5], exact["corners"][2]], BOARD, SIZE)
+    with pytest.raises(CalibrationError, match="'corners' has shape"):
+        HandEyeData(BOARD.object_points(), exact["corners"][:3], exact["T_base_flange"],
+                    exact["T_camera_board"], K_TRUE, np.zeros(5))

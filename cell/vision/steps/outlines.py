@@ -59,7 +59,8 @@ class Outline:
 def ring(contour: np.ndarray, *, hole: bool) -> Ring:
     """The :class:`Ring` of a ``cv2.findContours`` contour ((N, 1, 2) int32)."""
     p = contour.reshape(-1, 2).astype(np.float64)
-    tangent = np.roll(p, -2, axis=0) - np.roll(p, 2, axis=0)
+    i = np.arange(len(p))
+    tangent = p[(i + 2) % len(p)] - p[i - 2]  # (index -1, -2 wrap around)
     # findContours runs outer borders and holes opposite ways: the signed area says which
     clockwise = cv2.contourArea(contour, oriented=True) < 0
     normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
@@ -138,13 +139,20 @@ def _refined(region: np.ndarray, x0: int, y0: int, fg: Foreground, settings: Vis
     inside = (region > 0) & (fg.mask[y0:y1, x0:x1] > 0)
     if not inside.any():
         return np.zeros_like(region)
-    level = max(fg.threshold, settings.edge_level * float(np.percentile(diff[inside], 25)))
+    level = max(fg.threshold, settings.edge_level * _quantile(diff[inside], 0.25))
     keep = np.where((region > 0) & (diff > level), np.uint8(255), np.uint8(0))
     if settings.shadow_chroma > 0 and not fg.backlit:
         belt = fg.belt.window(x0, y0, x1, y1).median
         keep[shadow(fg.image[y0:y1, x0:x1], belt, chroma=settings.shadow_chroma,
                     noise=fg.noise)] = 0
     return keep
+
+
+def _quantile(values: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of ``values`` (1-D): the element of rank floor(q (n - 1)) in
+    order (``np.partition``: the lower of the two ``np.percentile`` interpolates)."""
+    k = int(q * (values.size - 1))
+    return float(np.partition(values, k)[k])
 
 
 def _groups(mask: np.ndarray, max_px: float) -> list[np.ndarray]:

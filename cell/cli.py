@@ -21,8 +21,8 @@ __all__ = ["COMMANDS", "main", "printable"]
 COMMANDS: dict[str, tuple[str, str]] = {
     "snapshot": ("cell.jobs.snapshot", "render what a camera sees when a part reaches the pick zone"),
     "detect": ("cell.vision.cli", "run the part detector on an image with its camera.json"),
-    "calibrate": ("cell.calib.cli", "calibrate the wrist camera from robot poses; errors against truth"),
-    "bench": ("cell.benchmarks", "benchmarks: render, vision, pick"),
+    "calibrate": ("cell.calib.cli", "calibrate the wrist and overhead cameras from robot poses"),
+    "bench": ("cell.benchmarks", "benchmarks: render, vision, pick, calib"),
 }
 
 

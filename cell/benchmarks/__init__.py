@@ -23,6 +23,7 @@ BENCHMARKS: dict[str, str] = {
     "render": "cell.benchmarks.render",
     "vision": "cell.benchmarks.vision",
     "pick": "cell.benchmarks.pick",
+    "calib": "cell.benchmarks.calib",
 }
 
 _USAGE = f"usage: cell bench {{{','.join(BENCHMARKS)}}} [options]"

@@ -2,8 +2,9 @@
 
 The array side (board detection, intrinsics, hand-eye, refinement, files) works on numpy
 arrays and returns frozen dataclasses; it never imports MuJoCo. The robot side
-(``capture``, ``touch``, ``job``) drives the simulated cell: it moves the arm, reads the
-joints and renders the wrist camera. Ground truth is read only by the job's scoring
+(``capture``, ``touch``, ``job``, and ``overhead``'s capture) drives the simulated cell:
+it moves the arm, reads the joints and renders the cameras (the wrist camera sees the
+table's board; the overhead camera sees a plate on the tool). Ground truth is read only by the job's scoring
 (``report``, the touch test's landing point). Names load lazily, on first use, so that
 reading the scenario's ``[calibration]`` section does not import OpenCV or scipy.
 """
@@ -26,8 +27,14 @@ _WHERE = {
     "compare_hand_eye": "handeye",
     "consistency": "handeye",
     "solve_hand_eye": "handeye",
+    "ROBOT_WORLD_METHODS": "eyetohand",
+    "EyeToHandEstimate": "eyetohand",
+    "compare_eye_to_hand": "eyetohand",
+    "solve_eye_to_hand": "eyetohand",
     "Refinement": "refine",
+    "EyeToHandRefinement": "refine",
     "refine_hand_eye": "refine",
+    "refine_eye_to_hand": "refine",
     "CalibrationFile": "calfile",
     "CameraCalibration": "calfile",
     "load_calibration": "calfile",
@@ -39,7 +46,12 @@ _WHERE = {
     "Rig": "capture",
     "capture_views": "capture",
     "TouchResult": "touch",
+    "PartTouchResult": "touch",
     "touch_test": "touch",
+    "touch_parts": "touch",
+    "OverheadCalibration": "overhead",
+    "calibrate_overhead": "overhead",
+    "solve_overhead": "overhead",
     "WristCalibration": "wrist",
     "calibrate_wrist": "wrist",
     "solve_wrist": "wrist",

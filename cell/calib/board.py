@@ -54,6 +54,13 @@ class Board:
         nx, ny = settings.board_inner_corners
         return cls((int(nx), int(ny)), float(settings.board_square))
 
+    @classmethod
+    def on_tool_from_settings(cls, settings: object) -> Board:
+        """The plate on the tool of a scenario's ``[calibration]`` section (the overhead
+        camera's target: ``flange_board_inner_corners``, ``flange_board_square``)."""
+        nx, ny = settings.flange_board_inner_corners
+        return cls((int(nx), int(ny)), float(settings.flange_board_square))
+
     @property
     def count(self) -> int:
         """Number of inner corners."""

@@ -8,9 +8,13 @@ Layout (``"schema": "cell.calibration"``, ``"version": 1``)::
                   "T_flange_camera": [[...4x4...]],   # or "T_base_camera" (a fixed camera)
                   "rms": 0.04, "method": "PARK+refined", "scenario": "sort", "seed": 1000}]}
 
-Units: pixels for ``K`` and ``rms`` (the reprojection RMS of the intrinsic calibration,
-over all corners of the views used), metres for translations. The robot's base frame is
-the cell's world frame. Loading checks everything: the schema and version, each key
+Units: pixels for ``K`` and ``rms`` (the reprojection RMS of the intrinsics the entry
+holds, over all corners of the views used: the intrinsic calibration's, or for an overhead
+entry whose refinement freed the intrinsics, the refinement's), metres for translations.
+The robot's base frame is the cell's world frame: the arm's base stands at the world
+origin with its axes aligned (``cell.sim.layout.ARM_BASE``, a surveyed transform of the
+cell, not a calibrated one), so a fixed camera's ``T_world_camera`` is its
+``T_base_camera``. Loading checks everything: the schema and version, each key
 (missing, unknown, or both poses), the camera fields as :class:`cell.camera.CameraModel`
 checks them (finite, shapes, fx and fy > 0, rotations orthonormal with det +1), ``rms``
 finite and >= 0, names, method and scenario printable text, ``seed`` an integer >= 0.

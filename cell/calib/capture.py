@@ -45,13 +45,13 @@ Progress = Callable[[int, int, str], None]
 @dataclass(frozen=True, eq=False)
 class CapturedView:
     """One captured view: ``image`` uint8 (H, W, 3) RGB; ``q_read`` (6,) rad the joint
-    readings; ``T_base_flange`` (4x4, m) their forward kinematics; ``plan`` the view it
-    was meant to be."""
+    readings; ``T_base_flange`` (4x4, m) their forward kinematics; ``plan`` the wrist view
+    it was meant to be (None for an overhead view: those are planned as joint angles)."""
 
     image: np.ndarray
     q_read: np.ndarray
     T_base_flange: np.ndarray
-    plan: ViewPlan
+    plan: ViewPlan | None
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,10 +1,14 @@
 """``cell calibrate [SCENARIO] --out calib.json``: calibrate the cell's cameras in simulation.
 
-Captures views of the table's checkerboard with the wrist camera from robot poses, then
-calibrates its intrinsics, distortion and mount on the flange (every OpenCV hand-eye
-method, the best by a criterion that needs no ground truth, then a joint refinement),
-writes the calibration file atomically, and prints the errors against the simulator's
-ground truth (``--report FILE`` writes them as JSON). Progress over the poses goes to
+The wrist camera (``--camera wrist``, the default): views of the table's checkerboard from
+robot poses, then its intrinsics, distortion and mount on the flange (every OpenCV
+hand-eye method, the best by a criterion that needs no ground truth, then a joint
+refinement). The overhead camera (``--camera overhead``): views of a checkerboard plate on
+the tool that the arm holds in front of it, then its intrinsics, distortion and pose in
+the robot's base frame (eye-to-hand: SHAH and LI, the more consistent, then a joint
+refinement). ``--camera all`` does both, wrist first, and the file holds both. The
+calibration file is written atomically; the errors against the simulator's ground truth
+are printed (``--report FILE`` writes them as JSON). Progress over the poses goes to
 stderr when it is a terminal. Without SCENARIO the defaults are used.
 """
 
@@ -19,7 +23,7 @@ from pathlib import Path
 
 from cell.calib.calfile import atomic_write_text, write_calibration
 from cell.calib.job import CAMERAS, run_calibration
-from cell.calib.report import format_wrist
+from cell.calib.report import format_camera
 from cell.cli import printable
 from cell.errors import CalibrationError
 from cell.options import Parser, int_in
@@ -35,7 +39,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", nargs="?", default=None,
                    help="scenario TOML file (default: the built-in defaults)")
     p.add_argument("--camera", default="wrist", choices=CAMERAS,
-                   help="camera to calibrate (overhead and all need a board the arm holds: not yet)")
+                   help="camera to calibrate: wrist (eye-in-hand, the table's board), overhead "
+                   "(eye-to-hand, a plate on the tool) or all (wrist, then overhead); default wrist")
     p.add_argument("--poses", type=int_in(3, 200), default=None, metavar="N",
                    help="robot poses (views) to capture; sets calibration.poses")
     p.add_argument("--seed", type=int_in(int(_SEED["lo"]), int(_SEED["hi"])), default=None, metavar="N",
@@ -44,7 +49,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="override a scenario key (dotted for sections); repeatable")
     p.add_argument("--out", required=True, help="calibration file to write (JSON)")
     p.add_argument("--report", default=None, help="also write the errors against ground truth as JSON")
-    p.add_argument("--no-touch", action="store_true", help="skip the touch test")
+    p.add_argument("--no-touch", action="store_true", help="skip the touch tests")
     return p
 
 
@@ -96,7 +101,8 @@ def main(argv: list[str]) -> int:
                           kind="report file")
     print(f"scenario {printable(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
           f"joint noise {scenario.calibration.joint_noise_deg:g} deg")
-    print(format_wrist(run.report["cameras"]["wrist"]))
+    for k, (name, camera_report) in enumerate(run.report["cameras"].items()):
+        print(("\n" if k else "") + format_camera(name, camera_report))
     print(f"\nwrote {printable(str(out))}" + (f" and {printable(str(report_path))}" if report_path else "")
           + f" in {run.wall_s:.1f} s")
     return 0

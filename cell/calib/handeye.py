@@ -51,7 +51,9 @@ HAND_EYE_METHODS = {
 
 @dataclass(frozen=True, eq=False)
 class HandEyeData:
-    """The views of an eye-in-hand calibration.
+    """The views of a hand-eye calibration: a camera on the flange and a board in the
+    cell (eye-in-hand, here), or a fixed camera and a board on the flange (eye-to-hand,
+    :mod:`cell.calib.eyetohand`).
 
     ``object_points`` (M, 3) board corners in the board frame (m); ``corners`` (N, M, 2)
     their detections (px); ``T_base_flange`` (N, 4, 4) from the joint readings;

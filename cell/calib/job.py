@@ -1,13 +1,22 @@
 """The calibration job: build the cell, calibrate its cameras, score against ground truth.
 
-``run_calibration`` is what ``cell calibrate`` runs. It builds the ``World`` of the
-scenario, calibrates the wrist camera from images and joint readings only
-(:func:`cell.calib.wrist.calibrate_wrist`), and then, for the report only, reads the
-simulator's ground truth (the true camera model and mount) and runs the touch test.
+``run_calibration`` is what ``cell calibrate`` runs. For the wrist camera it builds the
+``World`` of the scenario and calibrates the camera from images of the table's board and
+joint readings only (:func:`cell.calib.wrist.calibrate_wrist`); for the overhead camera
+it builds the cell with the checkerboard plate on the tool and calibrates from images of
+that plate and joint readings only (:func:`cell.calib.overhead.calibrate_overhead`);
+``all`` does both, wrist first, each in its own world, and the file holds both cameras.
+Then, for the report only, it reads the simulator's ground truth (the true camera models,
+mount and pose) and runs each camera's touch test.
 
-Randomness: one ``np.random.Generator`` from the scenario's seed (its own child stream of
-``SeedSequence(seed)``, apart from the world's) draws the views and the joint-reading
-noise, so the same scenario and seed give the same calibration.
+The overhead camera's cell: the belt stands still during its calibration (as a cell is
+calibrated: nothing rides into the views), and for its touch test three parts of the run
+are put on the belt in the camera's view at seeded places and left to settle.
+
+Randomness: each camera draws its views, its joint-reading noise and (overhead) its touch
+parts from its own child stream of ``SeedSequence(seed)`` (the world uses children 0 and
+1, the wrist 2, the overhead 3), so a camera's result is the same alone and with ``all``,
+and the same scenario and seed give the same calibration.
 
 Rendering: the calibration views are rendered with ``calibration.multisample`` samples
 per pixel (default 4). A real sensor integrates the light over each pixel's area; the
@@ -17,6 +26,7 @@ pixel and moves board corners by up to ~0.3 px (README, Calibration).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -25,8 +35,9 @@ import numpy as np
 from cell.calib.board import Board
 from cell.calib.calfile import CalibrationFile
 from cell.calib.capture import Progress, Rig
-from cell.calib.report import WristTruth, score_wrist
-from cell.calib.touch import touch_test, touch_view
+from cell.calib.overhead import OverheadCalibration, calibrate_overhead
+from cell.calib.report import CameraTruth, score_camera
+from cell.calib.touch import PART_STANDOFF, touch_parts, touch_test, touch_view
 from cell.calib.transforms import invert, make_transform
 from cell.calib.wrist import WristCalibration, calibrate_wrist
 from cell.errors import CalibrationError
@@ -34,7 +45,10 @@ from cell.errors import CalibrationError
 __all__ = ["CAMERAS", "CalibrationRun", "run_calibration"]
 
 CAMERAS = ("wrist", "overhead", "all")
-_STREAM = 2  # child index of SeedSequence(seed) for the calibration (the world uses 0 and 1)
+_STREAM = {"wrist": 2, "overhead": 3}  # child of SeedSequence(seed) per camera (the world uses 0, 1)
+_TOUCH_PARTS = 3
+_TOUCH_AREA = (0.10, 0.035)  # m: half-ranges along and across the belt, around the pick zone
+_TOUCH_GAP = 0.07  # m: least distance between two touch parts' centres
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,23 +58,26 @@ class CalibrationRun:
     ``wall_s`` it took (s)."""
 
     calibration: CalibrationFile
-    results: dict[str, WristCalibration]
+    results: dict[str, WristCalibration | OverheadCalibration]
     report: dict
     wall_s: float
 
 
-def _check_camera(camera: str) -> None:
+def _check_camera(camera: str) -> tuple[str, ...]:
     if camera not in CAMERAS:
         raise CalibrationError(f"unknown camera {camera!r}; valid: {', '.join(CAMERAS)}")
-    if camera in ("overhead", "all"):
-        raise CalibrationError(
-            f"--camera {camera}: the overhead camera's eye-to-hand calibration needs a checkerboard "
-            "that the arm holds in front of the fixed camera, and this cell has no such board yet "
-            "(only the one lying on the table, which the overhead camera cannot see from many "
-            "poses); calibrate the wrist camera with --camera wrist")
+    return ("wrist", "overhead") if camera == "all" else (camera,)
 
 
-def wrist_truth(world: object) -> WristTruth:
+def _world_base() -> np.ndarray:
+    """``T_world_base`` (4x4, m): the arm's base in the cell, from the cell's drawings
+    (``layout.ARM_BASE``: the world origin, axes aligned): a surveyed transform."""
+    from cell.sim.layout import ARM_BASE
+
+    return make_transform(np.eye(3), ARM_BASE)
+
+
+def wrist_truth(world: object) -> CameraTruth:
     """GROUND TRUTH of the wrist camera from the simulator, for scoring only: its true
     intrinsics, distortion and mount (the flange site's pose and the camera's, now)."""
     import mujoco
@@ -69,20 +86,29 @@ def wrist_truth(world: object) -> WristTruth:
     site = world.data.site("arm/flange")
     T_world_flange = make_transform(site.xmat.reshape(3, 3), site.xpos)
     model = world.camera_model("wrist")
-    return WristTruth(model.K.copy(), model.dist.copy(), invert(T_world_flange) @ model.T_world_camera)
+    return CameraTruth(model.K.copy(), model.dist.copy(), "T_flange_camera",
+                       invert(T_world_flange) @ model.T_world_camera)
 
 
-def run_calibration(scenario: object, *, camera: str = "wrist", progress: Progress | None = None,
-                    touch: bool = True) -> CalibrationRun:
-    """Calibrate ``camera`` of ``scenario`` in a fresh simulated cell; score it (and, with
-    ``touch``, run the touch test). ``progress(done, total, note)`` follows the views."""
+def overhead_truth(world: object) -> CameraTruth:
+    """GROUND TRUTH of the overhead camera from the simulator, for scoring only: its true
+    intrinsics, distortion and pose in the base frame."""
+    model = world.camera_model("overhead")
+    return CameraTruth(model.K.copy(), model.dist.copy(), "T_base_camera",
+                       invert(_world_base()) @ model.T_world_camera)
+
+
+def _rng(scenario: object, camera: str) -> np.random.Generator:
+    stream = _STREAM[camera]
+    return np.random.default_rng(np.random.SeedSequence(scenario.seed).spawn(stream + 1)[stream])
+
+
+def _run_wrist(scenario: object, *, progress: Progress | None, touch: bool) -> tuple:
     from cell.sim.fixtures import target_corners_world
     from cell.sim.world import World
 
-    _check_camera(camera)
-    t0 = time.perf_counter()
     settings = scenario.calibration
-    rng = np.random.default_rng(np.random.SeedSequence(scenario.seed).spawn(_STREAM + 1)[_STREAM])
+    rng = _rng(scenario, "wrist")
     world = World.build(scenario)
     try:
         world.model.vis.quality.offsamples = settings.multisample  # before the camera's first render
@@ -95,13 +121,88 @@ def run_calibration(scenario: object, *, camera: str = "wrist", progress: Progre
             touched = touch_test(rig, Board.from_settings(settings), result.camera,
                                  view=touch_view(settings, rng), detector=settings.detector,
                                  true_corners=target_corners_world())
-        camera_report = score_wrist(result, truth, touched)
+        return result, score_camera(result, truth, touched)
     finally:
         world.close()
+
+
+def _place_touch_parts(world: object, rng: np.random.Generator) -> list[int]:
+    """Put up to ``_TOUCH_PARTS`` parts of the run on the belt in the overhead camera's view
+    (seeded places and headings, ``_TOUCH_GAP`` apart) and let them settle; their ids."""
+    from cell.sim import layout
+
+    left = len(world.parts) - world.spawned
+    count = min(_TOUCH_PARTS, left)
+    if count < 1:
+        raise CalibrationError("touch test: every part of the run is out already; the overhead touch "
+                               "test puts parts on the belt (raise parts.count or use --no-touch)")
+    places: list[np.ndarray] = []
+    while len(places) < count:
+        p = layout.PICK_ZONE[:2] + rng.uniform(-1.0, 1.0, 2) * np.array(_TOUCH_AREA)
+        if all(np.linalg.norm(p - q) >= _TOUCH_GAP for q in places):
+            places.append(p)
+    ids = [world.place_next_part(float(x), float(y), float(rng.uniform(0.0, 2 * np.pi))).id
+           for x, y in places]
+    world.step(150)  # they drop 1 mm and come to rest
+    return ids
+
+
+def _part_truth(world: object, ids: list[int]) -> np.ndarray:
+    """GROUND TRUTH, for scoring only: ``PART_STANDOFF`` above each part's top centre (K, 3),
+    base frame (m)."""
+    from cell.catalogue import KINDS
+    from cell.sim import layout
+
+    T_base_world = invert(_world_base())
+    points = []
+    for i in ids:
+        position, _ = world.part_pose(i)
+        top = layout.BELT_TOP + KINDS[world.parts[i - 1].kind].height + PART_STANDOFF
+        points.append(T_base_world[:3, :3] @ np.array([position[0], position[1], top]) + T_base_world[:3, 3])
+    return np.array(points)
+
+
+def _run_overhead(scenario: object, *, progress: Progress | None, touch: bool) -> tuple:
+    from cell.sim.world import World
+
+    settings = scenario.calibration
+    rng = _rng(scenario, "overhead")
+    still = dataclasses.replace(scenario, conveyor=dataclasses.replace(scenario.conveyor, speed=0.0))
+    world = World.build(still, flange_board=True, msaa=settings.multisample)
+    try:
+        rig = Rig(world, joint_noise=np.radians(settings.joint_noise_deg), rng=rng)
+        result = calibrate_overhead(rig, settings, lens=scenario.camera, scenario=scenario.name,
+                                    seed=scenario.seed, progress=progress)
+        truth = overhead_truth(world)
+        touched = None
+        if touch:
+            ids = _place_touch_parts(world, rng)
+            touched = touch_parts(rig, result.camera, vision=scenario.vision,
+                                  true_points=_part_truth(world, ids))
+        return result, score_camera(result, truth, touched)
+    finally:
+        world.close()
+
+
+def run_calibration(scenario: object, *, camera: str = "wrist", progress: Progress | None = None,
+                    touch: bool = True) -> CalibrationRun:
+    """Calibrate ``camera`` (``wrist``, ``overhead`` or ``all``) of ``scenario`` in fresh
+    simulated cells; score it (and, with ``touch``, run the touch tests).
+    ``progress(done, total, note)`` follows the views."""
+    names = _check_camera(camera)
+    t0 = time.perf_counter()
+    settings = scenario.calibration
+    results, reports = {}, {}
+    for name in names:
+        t_camera = time.perf_counter()
+        run = _run_wrist if name == "wrist" else _run_overhead
+        results[name], reports[name] = run(scenario, progress=progress, touch=touch)
+        reports[name]["wall_s"] = time.perf_counter() - t_camera
     wall = time.perf_counter() - t0
     report = {
         "scenario": scenario.name, "seed": scenario.seed, "poses": settings.poses,
         "joint_noise_deg": settings.joint_noise_deg, "distortion_true": list(scenario.sensor.distortion),
-        "cameras": {"wrist": camera_report}, "wall_s": wall,
+        "cameras": reports, "wall_s": wall,
     }
-    return CalibrationRun(CalibrationFile((result.camera,)), {"wrist": result}, report, wall)
+    calibration = CalibrationFile(tuple(results[n].camera for n in names))
+    return CalibrationRun(calibration, results, report, wall)

@@ -12,6 +12,17 @@ above the board along the board's seen normal so that the cup does not press on 
 and the simulator's ground truth says where the TCP landed against where that point
 truly is (the same standoff above the true corner). This is the only place, besides the
 report, where ground truth is read, and it is read only to score.
+
+The overhead camera's touch test (:func:`touch_parts`) touches what that camera is for:
+parts on the belt. ``cell.vision``'s ``PartDetector`` finds them in one overhead image
+through the calibrated camera model (the fixed camera's ``T_base_camera``; the base frame
+is the cell's world frame), which puts each part's footprint centroid on the belt; the
+TCP (tool down) is driven to ``PART_STANDOFF`` above the part's top there (the belt's
+height from the cell's drawings plus the detected kind's catalogue height). The larger
+standoff keeps the plate on the tool, which reaches 5 mm past the cup face at 65 mm from
+the tool axis, clear of the belt and the other parts. The miss is measured as for the
+wrist camera, against the same standoff above the part's true top centre; it holds the
+detector's own position error (README, Vision) besides the calibration's.
 """
 
 from __future__ import annotations
@@ -31,9 +42,12 @@ from cell.calib.transforms import invert, make_transform, transform_from_rvec
 from cell.errors import CalibrationError, IKError, MotionError
 from cell.robot.ik import tool_yaw
 
-__all__ = ["TOUCH_STANDOFF", "TouchResult", "touch_test", "touch_view"]
+__all__ = ["PART_STANDOFF", "TOUCH_STANDOFF", "PartTouchResult", "TouchResult", "touch_parts", "touch_test",
+           "touch_view"]
 
 TOUCH_STANDOFF = 0.005  # m: the TCP stops this far above the board's face
+PART_STANDOFF = 0.02  # m: the TCP stops this far above a part's top (overhead touch test)
+_BELT_EDGE = 0.01  # m: a detection nearer the belt's edge is not a part on the belt (the edge strip)
 _APPROACH = 0.05  # m: above the point before the last, vertical, move
 
 
@@ -129,3 +143,67 @@ def touch_test(rig: Rig, board: Board, camera: CameraCalibration, *, view: ViewP
         raise CalibrationError(f"touch test: {exc}") from None
     truth = np.asarray(true_corners, float)[list(ids)] + np.array([0.0, 0.0, TOUCH_STANDOFF])
     return TouchResult(tuple(int(i) for i in ids), targets, landed, truth)
+
+
+@dataclass(frozen=True, eq=False)
+class PartTouchResult:
+    """The overhead camera's touch test: the ``kinds`` detected, ``targets`` (K, 3) where the
+    calibration placed the touch points, ``landed`` (K, 3) where the TCP came to rest and
+    ``truth`` (K, 3) where the points are (both simulator truth), base frame, metres."""
+
+    kinds: tuple[str, ...]
+    targets: np.ndarray
+    landed: np.ndarray
+    truth: np.ndarray
+
+    @property
+    def errors_mm(self) -> np.ndarray:
+        """Distance (mm) from each landed TCP to its true point."""
+        return 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+
+    @property
+    def located_mm(self) -> np.ndarray:
+        """Distance (mm) on the belt from each point located through the camera to the truth:
+        the camera's and the detector's share of the miss, without the robot's."""
+        return 1000.0 * np.linalg.norm(self.targets[:, :2] - self.truth[:, :2], axis=1)
+
+
+def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, true_points: np.ndarray,
+                yaw: float = 0.0) -> PartTouchResult:
+    """Touch the parts on the belt that the fixed ``camera`` (``T_base_camera``) sees, each
+    found by ``PartDetector(vision)`` in one image through the calibrated model (see the
+    module docstring); the arm must be out of the camera's view.
+
+    ``true_points`` (K, 3) are the true touch points, ``PART_STANDOFF`` above each part's top
+    centre, base frame (m; ground truth, for scoring only): each detection is scored against
+    the nearest. The K detections of a known kind whose position lies on the belt, more than
+    10 mm inside its edges (the cell's drawings: the detector sometimes takes a piece of the
+    belt's edge for a part), the most confident first, are touched, tool heading ``yaw``
+    (rad). Raises
+    ``CalibrationError`` when no part is found with a position and a kind, or a motion fails.
+    """
+    from cell.catalogue import KINDS
+    from cell.sim.layout import BELT_TOP, BELT_WIDTH, CONVEYOR_Y
+    from cell.vision.detector import PartDetector
+
+    if camera.pose_name != "T_base_camera":
+        raise CalibrationError(f"touch test: camera {camera.name!r} is not a fixed camera")
+    truth_all = np.asarray(true_points, float).reshape(-1, 3)
+    image, _ = rig.hold_and_look(camera.name)
+    inside = BELT_WIDTH / 2 - _BELT_EDGE
+    found = [d for d in PartDetector(vision).detect(image, camera.camera_model())
+             if d.position is not None and d.kind in KINDS and abs(d.position[1] - CONVEYOR_Y) <= inside]
+    if not found:
+        raise CalibrationError(f"touch test: camera {camera.name!r} found no whole part of a known kind "
+                               "on the belt")
+    found = sorted(found, key=lambda d: -d.kind_confidence)[: len(truth_all)]
+    targets = np.array([[d.position[0], d.position[1], BELT_TOP + KINDS[d.kind].height + PART_STANDOFF]
+                        for d in found])
+    try:
+        landed = np.array([_touch(rig, target, yaw, f"the {d.kind} seen at "
+                                  f"{np.round(target[:2], 3).tolist()} m")
+                           for d, target in zip(found, targets, strict=True)])
+    except (IKError, MotionError) as exc:
+        raise CalibrationError(f"touch test: {exc}") from None
+    nearest = np.argmin(np.linalg.norm(targets[:, None, :2] - truth_all[None, :, :2], axis=2), axis=1)
+    return PartTouchResult(tuple(d.kind for d in found), targets, landed, truth_all[nearest])

@@ -44,6 +44,13 @@ def _strict_json(text: str) -> dict:
     (["vision", "--scenes", "2", "--seed-base", str(2**63 - 1), "--presets", "front"],
      "--seed-base"),
     (["vision", "--scenes", "1", "--parts", "1", "--presets", ","], "--presets"),
+    (["calib", "--seeds", "0"], "--seeds"),
+    (["calib", "--seed-base", "999"], "--seed-base"),                  # a seed the tests use
+    (["calib", "--seeds", "2", "--seed-base", str(2**63 - 1)], "--seed-base"),
+    (["calib", "--poses", "2"], "--poses"),
+    (["calib", "--setups", ","], "--setups"),
+    (["calib", "--setups", "default,fog"], "--setups"),
+    (["calib", "--set", "calibration.poses=x"], "--set"),
     (["render", "--quick", "--repeats", "0"], "--repeats"),            # NaN table
     (["render", "--quick", "--repeats", "-1"], "--repeats"),
 ])
@@ -73,9 +80,12 @@ def test_each_help_states_the_ranges():
         assert text in " ".join(helps["pick"].split()), text
     for text in ("1 to 100000", "1 to 20", "1000 to 2**63-1", "front, back, raking"):
         assert text in " ".join(helps["vision"].split()), text
-    from cell.benchmarks import render
+    from cell.benchmarks import calib, render
 
     assert "1 to 10000" in render.parser().format_help()
+    text = " ".join(calib.parser().format_help().split())
+    for part in ("1 to 1000", "1000 to 2**63-1", "3 to 200", "default, distortion, joint_noise", "KEY=VALUE"):
+        assert part in text, part
 
 
 def test_a_pick_with_no_finished_cycle_reports_null_and_dash(monkeypatch, capsys):

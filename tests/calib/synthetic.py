@@ -43,6 +43,44 @@ def views(n: int, *, seed: int, dist: np.ndarray | None = None, noise_px: float 
             "T_camera_board": np.array(poses)}
 
 
+# Eye-to-hand: a fixed camera 0.48 m above the table looking down, turned a little off the
+# nominal; a 15 mm board on the flange, 65 mm to the side of the tool axis
+PLATE = Board((8, 5), 0.015)
+K_FIXED = np.array([[659.0, 0.0, 320.2], [0.0, 660.1, 239.1], [0.0, 0.0, 1.0]])
+C_TRUE = make_transform(
+    np.diag([1.0, -1.0, -1.0]) @ transform_from_rvec([0.004, -0.006, 0.01], np.zeros(3))[:3, :3],
+    [0.002, 0.451, 0.479])
+G_TRUE = make_transform(transform_from_rvec([0.0, -np.pi / 2, 0.0], np.zeros(3))[:3, :3] @
+                        transform_from_rvec([0.01, 0.0, -0.02], np.zeros(3))[:3, :3], [-0.065, -0.053, 0.036])
+
+
+def fixed_views(n: int, *, seed: int, dist: np.ndarray | None = None, noise_px: float = 0.0) -> dict:
+    """``n`` views of the board on the flange (``G_TRUE``) by the fixed camera (``C_TRUE``,
+    ``K_FIXED``): the board 0.22-0.29 m in front of the camera, tilted 8-40 deg about a
+    random axis, turned up to 60 deg about its normal, off the axis by up to 3 cm. Returns
+    flange poses (n, 4, 4), corners (n, M, 2) px and the true board poses in the camera."""
+    rng = np.random.default_rng(seed)
+    dist = np.zeros(5) if dist is None else np.asarray(dist, float)
+    obj = PLATE.object_points()
+    centre = obj.mean(axis=0)
+    flanges, corners, poses = [], [], []
+    for _ in range(n):
+        phi = rng.uniform(0, 2 * np.pi)
+        tilt = np.radians(rng.uniform(8, 40))
+        R = (transform_from_rvec(tilt * np.array([np.cos(phi), np.sin(phi), 0.0]), np.zeros(3))[:3, :3]
+             @ transform_from_rvec([0.0, 0.0, np.radians(rng.uniform(-60, 60))], np.zeros(3))[:3, :3])
+        at = np.array([rng.uniform(-0.03, 0.03), rng.uniform(-0.01, 0.01), rng.uniform(0.22, 0.29)])
+        T_camera_board = make_transform(R, at - R @ centre)
+        T_base_flange = C_TRUE @ T_camera_board @ invert(G_TRUE)
+        P = obj @ T_camera_board[:3, :3].T + T_camera_board[:3, 3]
+        pixels = project(P, K_FIXED, dist) + rng.normal(0.0, noise_px, (len(obj), 2))
+        flanges.append(T_base_flange)
+        corners.append(pixels)
+        poses.append(T_camera_board)
+    return {"T_base_flange": np.array(flanges), "corners": np.array(corners),
+            "T_camera_board": np.array(poses)}
+
+
 def board_image(H: np.ndarray, size: tuple[int, int] = SIZE, *, scale: int = 8) -> np.ndarray:
     """A grey image of the board (white margin one square wide, black square at the
     origin's outer diagonal), drawn through the board-to-image homography ``H`` (from

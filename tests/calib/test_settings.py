@@ -26,6 +26,11 @@ def test_defaults_and_overrides():
     ({"detector": "harris"}, r"'calibration.detector' has invalid value 'harris'"),
     ({"distortion_terms": 3}, r"'calibration.distortion_terms' has invalid value 3"),
     ({"board": 1}, r"unknown key 'calibration.board'"),
+    ({"flange_board_inner_corners": [7, 5]},
+     r"'calibration.flange_board_inner_corners' must be one even and one odd"),
+    ({"overhead_tilt": [40, 8]}, r"'calibration.overhead_tilt' must be \[least, most\]"),
+    ({"overhead_distortion_terms": 3}, r"'calibration.overhead_distortion_terms' has invalid value 3"),
+    ({"refine_intrinsics": 1}, r"'calibration.refine_intrinsics' must be bool"),
 ])
 def test_bad_values_name_the_key(data, pattern):
     with pytest.raises(ScenarioError, match=f"^x.toml: .*{pattern}"):

@@ -52,12 +52,11 @@ _APPROACH = 0.05  # m: above the point before the last, vertical, move
 
 
 @dataclass(frozen=True, eq=False)
-class TouchResult:
+class _Touched:
     """``targets`` (K, 3) where the calibration placed the touch points, ``landed`` (K, 3)
-    where the TCP came to rest (simulator truth), ``truth`` (K, 3) where the points are
-    (simulator truth), all base frame, metres; ``corner_ids`` the board corners touched."""
+    where the TCP came to rest and ``truth`` (K, 3) where the points are (both simulator
+    truth), base frame, metres."""
 
-    corner_ids: tuple[int, ...]
     targets: np.ndarray
     landed: np.ndarray
     truth: np.ndarray
@@ -66,6 +65,14 @@ class TouchResult:
     def errors_mm(self) -> np.ndarray:
         """Distance (mm) from each landed TCP to its true point."""
         return 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class TouchResult(_Touched):
+    """The wrist camera's touch test (see :class:`_Touched`); ``corner_ids`` the board
+    corners touched."""
+
+    corner_ids: tuple[int, ...] = ()
 
 
 def _board_seen(rig: Rig, board: Board, camera: CameraCalibration, *, detector: str) -> np.ndarray:
@@ -142,24 +149,14 @@ def touch_test(rig: Rig, board: Board, camera: CameraCalibration, *, view: ViewP
     except (IKError, MotionError) as exc:
         raise CalibrationError(f"touch test: {exc}") from None
     truth = np.asarray(true_corners, float)[list(ids)] + np.array([0.0, 0.0, TOUCH_STANDOFF])
-    return TouchResult(tuple(int(i) for i in ids), targets, landed, truth)
+    return TouchResult(targets, landed, truth, corner_ids=tuple(int(i) for i in ids))
 
 
 @dataclass(frozen=True, eq=False)
-class PartTouchResult:
-    """The overhead camera's touch test: the ``kinds`` detected, ``targets`` (K, 3) where the
-    calibration placed the touch points, ``landed`` (K, 3) where the TCP came to rest and
-    ``truth`` (K, 3) where the points are (both simulator truth), base frame, metres."""
+class PartTouchResult(_Touched):
+    """The overhead camera's touch test (see :class:`_Touched`): the ``kinds`` detected."""
 
-    kinds: tuple[str, ...]
-    targets: np.ndarray
-    landed: np.ndarray
-    truth: np.ndarray
-
-    @property
-    def errors_mm(self) -> np.ndarray:
-        """Distance (mm) from each landed TCP to its true point."""
-        return 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+    kinds: tuple[str, ...] = ()
 
     @property
     def located_mm(self) -> np.ndarray:
@@ -206,4 +203,4 @@ def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, true_poi
     except (IKError, MotionError) as exc:
         raise CalibrationError(f"touch test: {exc}") from None
     nearest = np.argmin(np.linalg.norm(targets[:, None, :2] - truth_all[None, :, :2], axis=2), axis=1)
-    return PartTouchResult(tuple(d.kind for d in found), targets, landed, truth_all[nearest])
+    return PartTouchResult(targets, landed, truth_all[nearest], kinds=tuple(d.kind for d in found))

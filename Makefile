@@ -12,7 +12,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	.venv/bin/cell snapshot scenarios/sort.toml --out out/demo
+	mkdir -p out/demo
+	.venv/bin/cell run scenarios/sort.toml --report out/demo/report.json --replay out/demo/replay.rrd
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -20,6 +20,7 @@ from cell.errors import CellError
 __all__ = ["COMMANDS", "main", "printable"]
 
 COMMANDS: dict[str, tuple[str, str]] = {
+    "run": ("cell.jobs.run", "run the sort job: calibrate, detect, pick and sort, report, replay"),
     "snapshot": ("cell.jobs.snapshot", "render what a camera sees when a part reaches the pick zone"),
     "detect": ("cell.vision.cli", "run the part detector on an image with its camera.json"),
     "calibrate": ("cell.calib.cli", "calibrate the wrist and overhead cameras from robot poses"),

@@ -34,10 +34,25 @@ class MotionError(CellError):
     """A motion cannot be planned or executed (limits, grasp lost, timeout)."""
 
 
+class GraspError(MotionError):
+    """The vacuum switch reports no part held: the grasp never sealed (``lost`` False) or
+    the part fell off the cup on its way to the bin (``lost`` True)."""
+
+    def __init__(self, message: str, *, lost: bool = False) -> None:
+        super().__init__(message)
+        self.lost = lost
+
+
+class JobError(CellError):
+    """A job cannot run as asked (a detector that does not load, an unusable output path)."""
+
+
 __all__ = [
     "CalibrationError",
     "CellError",
+    "GraspError",
     "IKError",
+    "JobError",
     "MotionError",
     "ScenarioError",
     "SimError",

@@ -31,6 +31,7 @@ from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, escape, override_source, setting, show
 from cell.errors import ScenarioError
+from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
 from cell.robot.settings import RobotSettings
 from cell.vision.settings import VisionSettings
 
@@ -106,6 +107,9 @@ class Scenario:
     robot: RobotSettings = setting(RobotSettings())
     vision: VisionSettings = setting(VisionSettings())
     calibration: CalibrationSettings = setting(CalibrationSettings())
+    capture: CaptureSettings = setting(CaptureSettings())
+    sort: SortSettings = setting(SortSettings())
+    faults: FaultSettings = setting(FaultSettings())
 
 
 def scenario_from_dict(

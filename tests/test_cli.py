@@ -54,7 +54,7 @@ def test_bad_scenario_exits_2_with_one_line_and_no_traceback(tmp_path):
 
 def test_unknown_command_lists_the_valid_ones():
     r = _cell("fly")
-    assert r.returncode == 2 and "valid: snapshot" in r.stderr
+    assert r.returncode == 2 and "valid: run, snapshot" in r.stderr
 
 
 def test_no_arguments_prints_the_usage_to_stderr_and_exits_2():

@@ -2,9 +2,16 @@
 
 Prints, for each camera, milliseconds per frame for RGB (under an unshadowed preset and
 under ``raking``, the one preset with shadows), depth and segmentation, and the cost of
-the sensor model as a ratio to the raw render; then physics steps per second with the
-arm and 10 parts on the belt and the real-time factor (simulated / wall seconds).
-A ratio whose denominator measured zero is ``None`` (``null`` in JSON, ``-`` in the table).
+the sensor model as a ratio to the raw render; then our own post-processing alone, per
+camera: the sensor model (``sensor_ms``) and the mapping of MuJoCo's raw segmentation to
+part ids (``seg_map_ms``), each also as a ratio to the raw RGB render (``*_vs_raw_ratio``),
+next to MuJoCo's raw segmentation render (``seg_raw_ms``); then the sensor model under
+other settings on the overhead camera's frame (``sensor_variants``: median ms per frame
+and the first frame's ms, which draws the noise bank and the distortion maps); then
+physics steps per second with the arm and 10 parts on the belt and the real-time factor
+(simulated / wall seconds). All times are medians over ``repeats`` frames after one
+warm-up frame, in milliseconds. A ratio whose denominator measured zero is ``None``
+(``null`` in JSON, ``-`` in the table).
 """
 
 from __future__ import annotations
@@ -28,7 +35,15 @@ def _ratio(a: float, b: float) -> float | None:
     return a / b if b > 0 else None
 
 
+def _once_ms(fn) -> float:
+    """Milliseconds of one call of ``fn``."""
+    t0 = time.perf_counter()
+    fn()
+    return 1000.0 * (time.perf_counter() - t0)
+
+
 def _ms(fn, repeats: int) -> float:
+    """Median milliseconds per call of ``fn`` over ``repeats`` calls after a warm-up call."""
     fn()  # warm up (first frame uploads textures)
     times = []
     for _ in range(repeats):
@@ -36,6 +51,78 @@ def _ms(fn, repeats: int) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return 1000.0 * float(np.median(times))
+
+
+def _ms_after(produce, process, repeats: int) -> float:
+    """Median milliseconds of ``process(produce())``, timing ``process`` alone.
+
+    Each call gets a freshly produced input (a new render), so the caches are as cold as in
+    a real frame loop; one warm-up call first.
+    """
+    process(produce())
+    times = []
+    for _ in range(repeats):
+        x = produce()
+        t0 = time.perf_counter()
+        process(x)
+        times.append(time.perf_counter() - t0)
+    return 1000.0 * float(np.median(times))
+
+
+def _post_processing(world, cam: str, repeats: int, *, raw_rgb_ms: float) -> dict:
+    """Our own per-frame work on ``cam``'s frames, without MuJoCo's render call (ms).
+
+    ``sensor_ms``: ``SensorModel.apply`` on a fresh raw RGB render (the scenario's sensor,
+    the current preset's gain); ``seg_map_ms``: a fresh raw segmentation to part ids; both
+    also as ratios to ``raw_rgb_ms``. ``seg_raw_ms``: MuJoCo's raw segmentation render.
+    """
+    rig = world.rig(cam)
+    rng = np.random.default_rng(0)  # the bench's own generator: the world's stream is untouched
+    gain = world.lighting.gain
+    out = {
+        "sensor_ms": _ms_after(lambda: rig.render_rgb(world.data),
+                               lambda rgb: rig.sensor.apply(rgb, rng, gain=gain), repeats),
+        "seg_raw_ms": _ms(lambda: rig.render_seg_raw(world.data), repeats),
+        "seg_map_ms": _ms_after(lambda: rig.render_seg_raw(world.data), rig.part_ids, repeats),
+    }
+    out["sensor_vs_raw_ratio"] = _ratio(out["sensor_ms"], raw_rgb_ms)
+    out["seg_map_vs_raw_ratio"] = _ratio(out["seg_map_ms"], raw_rgb_ms)
+    return out
+
+
+SENSOR_VARIANTS = {  # name -> SensorModel settings changed from the scenario's
+    "defaults": {},
+    "salt_pepper_bits": {"salt_pepper": 0.01, "bits": 4},
+    "distortion": {"distortion": (-0.25, 0.08, 0.0, 0.0, 0.0)},
+}
+
+
+def _sensor_variants(world, repeats: int) -> dict:
+    """The sensor model alone on the overhead camera's raw frames under ``SENSOR_VARIANTS``.
+
+    For each: ``ms`` (median per fresh frame, the model alone) and ``first_frame_ms`` (a
+    new model's first frame: it draws the noise bank, and the distortion maps if any),
+    with the settings used.
+    """
+    from cell.sim.sensor import SensorModel
+
+    rig = world.rig("overhead")
+    rgb = rig.render_rgb(world.data)
+    h, w = rgb.shape[:2]
+    s = world.scenario.sensor
+    gain = world.lighting.gain
+    out = {}
+    for name, changes in SENSOR_VARIANTS.items():
+        settings = {"noise_std": s.noise_std, "salt_pepper": s.salt_pepper,
+                    "distortion": tuple(s.distortion), "bits": s.bits, **changes}
+        model = SensorModel(K=world.camera_model("overhead").K, width=w, height=h, **settings)
+        rng = np.random.default_rng(0)
+        first = _once_ms(lambda m=model, r=rng: m.apply(rgb, r, gain=gain))
+        out[name] = {"ms": _ms_after(lambda: rig.render_rgb(world.data),
+                                     lambda x, m=model, r=rng: m.apply(x, r, gain=gain), repeats),
+                     "first_frame_ms": first,
+                     "settings": {**settings, "distortion": list(settings["distortion"])}}
+    return out
 
 
 def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int = 480) -> dict:
@@ -65,7 +152,9 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
             out["seg_ms"] = _ms(lambda r=rig: r.render_seg(world.data), repeats)
             out["sensor_overhead_ratio"] = _ratio(out["rgb_front_ms"], out["rgb_raw_front_ms"])
             out["rgb_worst_vs_target_ratio"] = max(out["rgb_front_ms"], out["rgb_raking_ms"]) / RGB_TARGET_MS
+            out.update(_post_processing(world, cam, repeats, raw_rgb_ms=out["rgb_raw_front_ms"]))
             cameras[cam] = out
+        variants = _sensor_variants(world, repeats)
         world.conveyor.mode = "continuous"  # keep parts moving: contacts change every step
         t0 = time.perf_counter()
         sim0 = world.time
@@ -76,6 +165,7 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
     return {
         "image": [width, height],
         "cameras": cameras,
+        "sensor_variants": variants,
         "physics": {
             "bodies": int(world.model.nbody), "dofs": int(world.model.nv),
             "steps_per_s": _ratio(steps, wall), "real_time_factor": _ratio(world.time - sim0, wall),
@@ -92,6 +182,17 @@ def _print(result: dict) -> None:
         print(f"{cam:<10}{r['rgb_front_ms']:>10.1f}{r['rgb_raking_ms']:>11.1f}{r['rgb_raw_front_ms']:>10.1f}"
               f"{r['depth_ms']:>8.1f}{r['seg_ms']:>8.1f}{fmt(r['sensor_overhead_ratio'], '>10.2f')}"
               f"{r['rgb_worst_vs_target_ratio']:>11.2f}")
+    print("our post-processing alone, median ms per frame (x: ratio to the raw front RGB render)")
+    print(f"{'camera':<10}{'sensor':>8}{'x':>7}{'seg raw':>9}{'id map':>8}{'x':>7}")
+    for cam, r in result["cameras"].items():
+        print(f"{cam:<10}{r['sensor_ms']:>8.2f}{fmt(r['sensor_vs_raw_ratio'], '>7.2f')}"
+              f"{r['seg_raw_ms']:>9.2f}{r['seg_map_ms']:>8.2f}{fmt(r['seg_map_vs_raw_ratio'], '>7.2f')}")
+    print("sensor model on the overhead frame: median ms per frame, first frame ms (draws the bank)")
+    for name, v in result["sensor_variants"].items():
+        st = v["settings"]
+        what = (f"noise {st['noise_std']:g}, s&p {st['salt_pepper']:g}, bits {st['bits']}, "
+                f"k1 {st['distortion'][0]:g}, k2 {st['distortion'][1]:g}")
+        print(f"  {name:<18}{v['ms']:>7.2f}{v['first_frame_ms']:>8.1f}   {what}")
     p = result["physics"]
     print(f"physics: {fmt(p['steps_per_s'], '.0f')} steps/s with the arm and 10 parts "
           f"({p['dofs']} dofs), real-time factor {fmt(p['real_time_factor'], '.1f')}x")

@@ -26,8 +26,6 @@ back and checked, and only then renamed over the target, so a reader never sees 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +34,7 @@ import numpy as np
 
 from cell.camera import CameraModel, check_camera_fields, read_json_file
 from cell.errors import CalibrationError
+from cell.files import atomic_write_bytes
 
 __all__ = ["SCHEMA", "VERSION", "CalibrationFile", "CameraCalibration", "atomic_write_text",
            "calibration_from_dict", "load_calibration", "write_calibration"]
@@ -246,45 +245,7 @@ def write_calibration(path: str | Path, calibration: CalibrationFile) -> None:
 
 def atomic_write_text(path: str | Path, text: str, *, check: Callable[[str], None] | None = None,
                       kind: str = "file") -> None:
-    """Write ``text`` (UTF-8) to ``path`` through a temporary file beside it: written,
-    flushed, fsynced, read back (byte for byte, then ``check(temporary path)`` if given),
-    renamed over ``path``, and the folder fsynced. On any failure the temporary file is
-    removed, ``path`` is left as it was, and a ``CalibrationError`` names ``kind`` and the
-    path."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    data = text.encode("utf-8")
-    try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:100]}.", suffix=".tmp")
-    except OSError as exc:
-        raise CalibrationError(f"cannot write {kind} {str(path)!r}: {exc.strerror}") from None
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        if Path(tmp).read_bytes() != data:
-            raise CalibrationError(f"{kind} {str(path)!r}: the written file reads back differently")
-        if check is not None:
-            check(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise CalibrationError(f"cannot write {kind} {str(path)!r}: {exc.strerror or exc}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    _fsync_dir(folder)
-
-
-def _fsync_dir(folder: Path) -> None:
-    """Make the rename durable (POSIX); a platform without directory fsync skips it."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`cell.files.atomic_write_bytes`);
+    a failure is a ``CalibrationError`` naming ``kind`` and the path, and leaves ``path``
+    as it was."""
+    atomic_write_bytes(path, text.encode("utf-8"), check=check, kind=kind, error=CalibrationError)

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from cell.calib.job import CAMERAS, run_calibration
 from cell.calib.report import format_camera
 from cell.cli import printable
 from cell.errors import CalibrationError
+from cell.files import check_output_file
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario, scenario_from_dict
 
@@ -54,19 +54,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _check_target(arg: str, option: str) -> Path:
-    """The file an option names, checked before the run: its folder exists and is writable,
-    and it is not a folder itself."""
-    if not arg:
-        raise CalibrationError(f"{option}: empty path; name a file")
-    path = Path(arg)
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise CalibrationError(f"{option} {arg!r}: is a folder; name a file")
-    if not folder.is_dir():
-        raise CalibrationError(f"{option} {arg!r}: the folder {str(folder)!r} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise CalibrationError(f"{option} {arg!r}: no write permission in {str(folder)!r}")
-    return path
+    return check_output_file(arg, option, error=CalibrationError)
 
 
 def _progress(stream) -> object:

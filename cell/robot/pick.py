@@ -16,6 +16,7 @@ per part and goes on.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,7 +25,7 @@ import mujoco
 import numpy as np
 
 from cell.catalogue import KINDS
-from cell.errors import IKError, MotionError
+from cell.errors import GraspError, IKError, MotionError
 from cell.robot.ik import ArmIK, tool_yaw
 from cell.robot.kinematics import ArmKinematics
 from cell.robot.motion import ArmDriver
@@ -52,6 +53,8 @@ TOOL_SYMMETRY = 8  # the cup's lip is a ring of eight: it grasps the same turned
 _HOVER = 0.0  # the cup face stops at the part's nominal top; the vacuum pulls the part
 # up against the lip (the lip's reach is 2 mm), so the arm never pushes on it
 _SAMPLES = 12  # configurations checked for collisions along each free-space segment
+_MEET_ROUNDS = 3  # predictions of a moving part's meeting point (each re-plans once)
+_MEET_MARGIN = 0.06  # s: the servos' settling at the grasp, beyond the time-optimal motion
 
 
 def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float, *,
@@ -75,7 +78,9 @@ def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float, *,
 class PartTarget:
     """A part to pick: ``kind`` (catalogue name), its frame at (``x``, ``y``) world
     metres with heading ``yaw`` rad, lying on a surface at height ``surface_z`` (m),
-    going to ``bin`` (a key of ``layout.BINS``)."""
+    going to ``bin`` (a key of ``layout.BINS``). A part on a running belt moves at ``vx``
+    (m/s along +x) and was at (``x``, ``y``) at time ``seen_at`` (s): the pick aims where
+    it will be when the cup reaches it."""
 
     kind: str
     x: float
@@ -83,6 +88,15 @@ class PartTarget:
     yaw: float
     bin: str
     surface_z: float = layout.BELT_TOP
+    vx: float = 0.0
+    seen_at: float = 0.0
+
+    def at(self, t: float) -> PartTarget:
+        """Where the part will be at time ``t`` (s) if it rides the belt at ``vx`` (m/s along
+        +x) from (``x``, ``y``) where it was seen at ``seen_at`` (s)."""
+        if self.vx == 0.0:
+            return self
+        return dataclasses.replace(self, x=self.x + self.vx * (t - self.seen_at), seen_at=t)
 
 
 @dataclass(frozen=True)
@@ -115,6 +129,7 @@ class PickPlace:
         self.data = data
         self.home = HOME.copy()
         self._seeds: dict[str, np.ndarray] = {}
+        self._arrival = 0.0
 
     # --- planning -------------------------------------------------------------------
     def _solve(self, key: str, position: np.ndarray, yaw: float | None, q_ref: np.ndarray,
@@ -181,7 +196,43 @@ class PickPlace:
         self._check_path(q_bin, home, 0.005, f"retreat from bin '{part.bin}'")
         return {"start": start, "above": q_above, "grasp": q_grasp, "bin": q_bin, "home": home}
 
+    def _plan_to_meet(self, part: PartTarget) -> dict[str, np.ndarray]:
+        """The plan for a part on a running belt: aimed where the part will be when the cup
+        reaches it (the time-optimal times of the approach and the descent, plus
+        ``_MEET_MARGIN``), refined over ``_MEET_ROUNDS`` predictions."""
+        d = self.driver
+        self._arrival = self.data.time
+        for _ in range(_MEET_ROUNDS):
+            wp = self.plan(part.at(self._arrival))
+            reach = (min_time(wp["start"], wp["above"], d.vmax, d.amax)
+                     + min_time(wp["above"], wp["grasp"], d.vmax, d.amax))
+            self._arrival = self.data.time + reach + _MEET_MARGIN
+        return self.plan(part.at(self._arrival))
+
     # --- execution ------------------------------------------------------------------
+    def _execute(self, part: PartTarget, wp: dict[str, np.ndarray], name: str) -> list:
+        """Drive one planned cycle; returns the executed segments."""
+        d = self.driver
+        via = self.settings.via_tolerance
+        # over a part riding on the belt the cup does not wait to settle: the part would
+        # slide away under it
+        segs = [d.move(wp["above"], what=f"approach above {name}", tolerance=via),
+                d.move(wp["grasp"], what=f"grasp of {name}", tolerance=via if part.vx else None)]
+        self.cup.on()
+        self._wait_for(self.cup.sealed, self.settings.grasp_timeout)
+        segs.append(d.move(wp["above"], what=f"lift of {name}", tolerance=via))
+        if not self.cup.sealed():  # verify: the vacuum switch must report a held part
+            raise GraspError(f"grasp of {name} failed: the vacuum switch reads "
+                             f"{self.cup.reading():.2f} N after the lift, no part held")
+        segs.append(d.move(wp["bin"], what=f"transfer of {name}", tolerance=via))
+        if not self.cup.sealed():
+            raise GraspError(f"{name} was lost during the transfer to bin '{part.bin}'", lost=True)
+        self.cup.off()
+        self._wait_for(lambda: self.cup.reading() < 0.01, self.settings.release_time + 0.2)
+        self.driver.wait(self.settings.release_time)
+        segs.append(d.move(wp["home"], what="home", tolerance=via))
+        return segs
+
     def _wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
         for _ in range(int(np.ceil(timeout / self.driver.dt))):
             if condition():
@@ -189,41 +240,33 @@ class PickPlace:
             self.driver.wait(self.driver.dt)
         return condition()
 
-    def _abort(self, message: str) -> MotionError:
+    def _abort(self, error: MotionError) -> MotionError:
+        """Vent the cup and take the arm home (as near as it gets); returns ``error``."""
         self.cup.off()
         home = self.home.copy()
         home[5] = self.driver.q_cmd[5]
         with contextlib.suppress(MotionError):
             self.driver.move(home, what="home after an aborted pick")
-        return MotionError(message)
+        return error
 
     def run(self, part: PartTarget) -> PickResult:
         """Pick ``part`` and place it in its bin; returns a :class:`PickResult`.
 
-        Raises ``IKError`` (no solution, nothing moved) or ``MotionError`` (grasp not
-        verified, part lost, arm blocked; the arm returns home first)."""
+        Raises ``IKError`` (no solution, nothing moved), ``GraspError`` (the vacuum switch
+        reports no part after the lift, or lost on the way; ``lost`` says which) or
+        ``MotionError`` (the arm blocked); after either the cup is vented and the arm back
+        home."""
         t0 = self.data.time
         n_ik = len(self.ik.stats)
         self.driver.sync()
-        wp = self.plan(part)
+        wp = self._plan_to_meet(part) if part.vx else self.plan(part)
+        part = part.at(self._arrival)
         name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
+        try:
+            segs = self._execute(part, wp, name)
+        except MotionError as exc:
+            raise self._abort(exc) from None
         d = self.driver
-        via = self.settings.via_tolerance
-        segs = [d.move(wp["above"], what=f"approach above {name}", tolerance=via),
-                d.move(wp["grasp"], what=f"grasp of {name}")]
-        self.cup.on()
-        self._wait_for(self.cup.sealed, self.settings.grasp_timeout)
-        segs.append(d.move(wp["above"], what=f"lift of {name}", tolerance=via))
-        if not self.cup.sealed():  # verify: the vacuum switch must report a held part
-            raise self._abort(f"grasp of {name} failed: the vacuum switch reads "
-                              f"{self.cup.reading():.2f} N after the lift, no part held")
-        segs.append(d.move(wp["bin"], what=f"transfer of {name}", tolerance=via))
-        if not self.cup.sealed():
-            raise self._abort(f"{name} was lost during the transfer to bin '{part.bin}'")
-        self.cup.off()
-        self._wait_for(lambda: self.cup.reading() < 0.01, self.settings.release_time + 0.2)
-        self.driver.wait(self.settings.release_time)
-        segs.append(d.move(wp["home"], what="home", tolerance=via))
         bound = sum(min_time(s.q0, s.q1, d.vmax, d.amax) for s in segs)
         stats = self.ik.stats[n_ik:]
         return PickResult(

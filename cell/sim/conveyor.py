@@ -121,6 +121,12 @@ class Conveyor:
     mode: str
     travel: float = 0.0
     running: bool = True
+    release: float = 0.0  # m: run on past a broken barrier until it has been clear this far
+
+    def release_part(self, distance: float = 0.03) -> None:
+        """Run on although the barrier is broken (the PLC's release button), until it has
+        been clear for ``distance`` metres of belt: a part the cell gives up on moves on."""
+        self.release = float(distance)
 
     def __post_init__(self) -> None:
         self._belt = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "belt")
@@ -137,11 +143,17 @@ class Conveyor:
     def _apply(self, speed: float) -> None:
         self.model.geom_surfacevel[self._belt] = np.array([speed, 0, 0, 0, 0, 0])
 
-    def update(self, data: mujoco.MjData, dt: float) -> None:
-        """One control tick: stop or run the belt from the barrier, advance the odometer."""
-        run = self.mode == "continuous" or not self.barrier_blocked(data)
+    def update(self, data: mujoco.MjData, dt: float, *, held: bool = False) -> None:
+        """One control tick: stop or run the belt from the barrier, advance the odometer.
+
+        ``held``: the belt stands still whatever the barrier says (a stop fault, or a
+        controller's hold)."""
+        run = not held and (self.mode == "continuous" or not self.barrier_blocked(data)
+                            or self.release > 0.0)
         if run != self.running:
             self._apply(self.speed if run else 0.0)
             self.running = run
         if run:
             self.travel += self.speed * dt
+            if self.release > 0.0 and not self.barrier_blocked(data):
+                self.release = max(0.0, self.release - self.speed * dt)

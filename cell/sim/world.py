@@ -42,6 +42,7 @@ from cell.sim import layout
 from cell.sim.arm import HOME, JOINT_NAMES, add_arm
 from cell.sim.cameras import CameraRig, Frame, add_overhead_camera, true_camera_model
 from cell.sim.conveyor import Conveyor, add_conveyor
+from cell.sim.faults import FaultInjector, flip_quat, flipped_half_height
 from cell.sim.fixtures import add_bins, add_table, add_target
 from cell.sim.flange_board import corners_in_flange
 from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
@@ -168,6 +169,7 @@ class World:
         self._live = np.zeros(0, dtype=np.int64)  # body ids of the spawned, uncaught parts
         self._travel_at_spawn = -math.inf
         self.conveyor = Conveyor(self.model, scenario.conveyor.speed, scenario.conveyor.mode)
+        self.faults = FaultInjector(self.model, self.data, scenario.faults)
         self.lighting: LightingPreset = apply_lighting(self.model, scenario.lighting)
         self.lighting_name = scenario.lighting
         self._rigs: dict[str, CameraRig] = {}
@@ -273,11 +275,12 @@ class World:
         dt = self.model.opt.timestep
         spacing = self.scenario.parts.spacing
         for _ in range(n):
-            self.conveyor.update(self.data, dt)
+            self.conveyor.update(self.data, dt, held=self.faults.belt_stopped(self.data.time))
             if self.spawned < len(self.parts) and (
                 self.conveyor.travel - self._travel_at_spawn >= spacing
             ):
                 self._spawn_upstream()
+            self.faults.step()
             mujoco.mj_step(self.model, self.data)
             if self._live.size:
                 self._catch()
@@ -339,12 +342,26 @@ class World:
         self.data.qacc_warmstart[dof : dof + 6] = 0
         self.model.body_gravcomp[part.body_id] = 1.0
 
+    def belt_encoder(self) -> float:
+        """The belt's encoder: metres run since the start, in 0.1 mm counts."""
+        return round(self.conveyor.travel / 1e-4) * 1e-4
+
     def _spawn_upstream(self) -> None:
         lateral = self.scenario.parts.lateral_range
         y = layout.CONVEYOR_Y + self.rng.uniform(-lateral, lateral)
         yaw = self.rng.uniform(0.0, 2 * math.pi)
-        part = self.place_next_part(layout.SPAWN_X, y, yaw)
-        self._set_velocity(part, [self.conveyor.speed if self.conveyor.running else 0.0, 0, 0])
+        pair = self.spawned + 2 <= len(self.parts) and self.faults.touches_previous(self.spawned + 2)
+        if pair:  # the next part is spawned against this one: both lie along the belt
+            yaw = 0.0
+        x = layout.SPAWN_X
+        spawned = [self.place_next_part(x, y, yaw)]
+        if pair:
+            first, second = self.parts[self.spawned - 1], self.parts[self.spawned]
+            x -= (KINDS[first.kind].length + KINDS[second.kind].length) / 2
+            spawned.append(self.place_next_part(x, y, 0.0))
+        v = self.conveyor.speed if self.conveyor.running else 0.0
+        for part in spawned:
+            self._set_velocity(part, [v, 0, 0])
         self._travel_at_spawn = self.conveyor.travel
 
     def place_next_part(self, x: float, y: float, yaw: float) -> PartInfo:
@@ -361,11 +378,15 @@ class World:
         on_belt = abs(y - layout.CONVEYOR_Y) < layout.BELT_WIDTH / 2 and (
             layout.BELT_X[0] <= x <= layout.BELT_X[1]
         )
-        z = (layout.BELT_TOP if on_belt else 0.0) + KINDS[part.kind].height / 2 + 0.001
+        quat = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
+        half = KINDS[part.kind].height / 2
+        if self.faults.is_flipped(part.id):  # the [faults] section's flipped parts
+            quat, half = flip_quat(part.kind, yaw), flipped_half_height(part.kind)
+        z = (layout.BELT_TOP if on_belt else 0.0) + half + 0.001
         jnt = self.model.body_jntadr[part.body_id]
         adr = self.model.jnt_qposadr[jnt]
         self.data.qpos[adr : adr + 3] = [x, y, z]
-        self.data.qpos[adr + 3 : adr + 7] = [math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
+        self.data.qpos[adr + 3 : adr + 7] = quat
         self._set_velocity(part, [0, 0, 0])
         self.model.body_gravcomp[part.body_id] = 0.0
         self._live = np.append(self._live, part.body_id)
@@ -422,6 +443,8 @@ class World:
         """Render ``camera``: the sensor's RGB, and depth and segmentation if asked."""
         rig = self.rig(camera)
         rgb = rig.sensor.apply(rig.render_rgb(self.data), self._sensor_rng, gain=self.lighting.gain)
+        if self.faults.camera_dark(self.time):  # a blackout fault: the sensor delivers black
+            rgb = np.zeros_like(rgb)
         h, w = rgb.shape[:2]
         d = rig.render_depth(self.data) if depth else np.zeros((h, w), np.float32)
         s = rig.render_seg(self.data) if seg else np.zeros((h, w), np.int32)

@@ -7,13 +7,15 @@ same way (see :mod:`cell.config`).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
-from cell.config import setting
+from cell.config import escape, setting
 from cell.errors import ScenarioError
 
 __all__ = ["SEGMENTATIONS", "VisionSettings"]
 
+_DETECTOR_NAME = re.compile(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_][\w]*")
 SEGMENTATIONS = ("belt", "fixed", "otsu", "iterative", "adaptive")
 
 
@@ -25,6 +27,12 @@ class VisionSettings:
     from the frame (``belt``), or a textbook threshold of the grey image.
     """
 
+    detector: str = setting(
+        "parts",
+        doc="the detector a job uses: parts (ours) or 'package.module:Class' for your own, any "
+        "class whose detect(image, camera) returns Detections (built with no arguments, or "
+        "with the VisionSettings if it takes one)",
+    )
     segmentation: str = setting(
         "belt",
         choices=SEGMENTATIONS,
@@ -118,6 +126,10 @@ class VisionSettings:
     )
 
     def _validate(self, where: str) -> None:
+        if self.detector != "parts" and not _DETECTOR_NAME.fullmatch(self.detector):
+            raise ScenarioError(
+                f"{where}: key 'vision.detector' must be 'parts' or 'package.module:Class', "
+                f"got {escape(repr(self.detector))}")
         if self.smooth and self.smooth % 2 == 0:
             raise ScenarioError(f"{where}: key 'vision.smooth' must be odd or 0, got {self.smooth}")
         if self.adaptive_block % 2 == 0:

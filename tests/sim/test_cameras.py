@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 from cell.catalogue import KINDS
@@ -72,3 +73,19 @@ def test_sensor_distortion_moves_points_as_the_model_says(world_factory):
         assert np.linalg.norm(distorted - found[part.id]) < 1.0
         if np.linalg.norm(ideal - [319.5, 239.5]) > 150:  # far from centre: visibly moved
             assert np.linalg.norm(ideal - found[part.id]) > 3.0
+
+
+def test_segmentation_maps_mujocos_raw_ids_to_part_ids(world_factory):
+    world = world_factory(parts={"count": 3, "kinds": ["washer"]}, sensor={"noise_std": 0.0})
+    for x, y in [(-0.05, 0.42), (0.0, 0.45), (0.05, 0.48)]:
+        world.place_next_part(x, y, 0.0)
+    world.step(100)
+    rig = world.rig("overhead")
+    raw = rig.render_seg_raw(world.data)
+    assert raw.dtype == np.int32 and raw.shape == (rig.sensor.height, rig.sensor.width, 2)
+    assert np.array_equal(raw[..., 0] == -1, raw[..., 1] == -1)  # background is (-1, -1)
+    obj, kind = raw[..., 0], raw[..., 1]
+    is_geom = kind == int(mujoco.mjtObj.mjOBJ_GEOM)
+    expected = np.where(is_geom, rig.part_of_geom[np.clip(obj, 0, None)], 0)
+    assert np.array_equal(rig.part_ids(raw), expected)
+    assert set(np.unique(rig.render_seg(world.data))) == {0} | {p.id for p in world.parts}

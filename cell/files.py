@@ -1,0 +1,92 @@
+"""Writing output files whole or not at all, and checking output paths before a run.
+
+``atomic_write_bytes`` writes through a temporary file beside the target: written,
+flushed, fsynced, read back and checked, renamed over the target, the folder fsynced. A
+failure removes the temporary file and leaves the target as it was. ``check_output_file``
+refuses, before any work is done, a path that cannot become a file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from cell.config import escape
+from cell.errors import CellError
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "check_output_file"]
+
+
+def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,
+                       kind: str = "file", error: type[CellError] = CellError) -> None:
+    """Write ``data`` to ``path`` atomically (see the module docstring); ``check(temporary
+    path)`` may raise to refuse what was written. Failures raise ``error`` naming ``kind``
+    and the path."""
+    path = Path(path)
+    shown = escape(repr(str(path)))
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name[:100]}.", suffix=".tmp")
+    except OSError as exc:
+        raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
+    try:
+        os.chmod(tmp, 0o666 & ~_umask())  # as open() would make it, not mkstemp's 0600
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        if Path(tmp).read_bytes() != data:
+            raise error(f"{kind} {shown}: the written file reads back differently")
+        if check is not None:
+            check(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    _fsync_dir(folder)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write_text(path: str | Path, text: str, **options) -> None:
+    """``atomic_write_bytes`` of ``text`` in UTF-8 (same options)."""
+    atomic_write_bytes(path, text.encode("utf-8"), **options)
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make the rename durable (POSIX); a platform without directory fsync skips it."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def check_output_file(arg: str, option: str, *, error: type[CellError] = CellError) -> Path:
+    """The file an option names, checked before the run: not empty, not a folder, its
+    folder exists and is writable. Raises ``error`` naming the option and the path."""
+    if not arg:
+        raise error(f"{option}: empty path; name a file")
+    shown = escape(repr(arg))
+    path = Path(arg)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise error(f"{option} {shown}: is a folder; name a file")
+    if not folder.is_dir():
+        raise error(f"{option} {shown}: the folder {escape(repr(str(folder)))} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise error(f"{option} {shown}: no write permission in {escape(repr(str(folder)))}")
+    return path

@@ -1,0 +1,107 @@
+"""``cell run``: the files it writes, its replay (checked by rerun's own tools), its errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[2]
+
+
+def _cell(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cell.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, env={**os.environ, "MUJOCO_GL": "egl", **(env or {})}, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """One short run with a report and a replay, calibrating first (as make demo does)."""
+    out = tmp_path_factory.mktemp("run")
+    r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=2", "--report",
+              str(out / "report.json"), "--replay", str(out / "replay.rrd"))
+    return out, r
+
+
+def test_run_writes_report_calibration_image_and_replay(demo):
+    out, r = demo
+    assert r.returncode == 0, r.stderr
+    assert "calibrating the overhead camera first" in r.stderr
+    assert "sort accuracy" in r.stdout and "open the replay with" in r.stdout
+    report = json.loads((out / "report.json").read_text())
+    assert report["accounting"]["spawned"] == 2
+    assert set(report["metrics"]) >= {
+        "sort_accuracy", "classification_accuracy", "pick_success", "position_error_mm_p50",
+        "position_error_mm_p95", "cycle_time_s_mean", "parts_per_minute", "sim_time_s",
+        "wall_time_s", "real_time_factor"}
+    assert report["calibration"]["file"] == str(out / "report.calibration.json")
+    assert (out / "detections.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary left
+
+
+def test_the_calibration_written_is_reused(demo, tmp_path):
+    out, _ = demo
+    r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", "--calibration",
+              str(out / "report.calibration.json"), "--report", str(tmp_path / "r.json"))
+    assert r.returncode == 0, r.stderr
+    assert "calibrating" not in r.stderr
+    assert json.loads((tmp_path / "r.json").read_text())["calibration"]["file"] == str(
+        out / "report.calibration.json")
+    assert not (tmp_path / "r.calibration.json").exists()
+
+
+def test_replay_verifies_with_rerun_and_holds_the_run(demo):
+    out, _ = demo
+    env = {**os.environ, "CI": "1"}
+    verify = subprocess.run([sys.executable, "-m", "rerun_cli", "rrd", "verify", str(out / "replay.rrd")],
+                            capture_output=True, text=True, env=env, timeout=120)
+    assert verify.returncode == 0, verify.stderr
+    stats = subprocess.run([sys.executable, "-m", "rerun_cli", "rrd", "stats", str(out / "replay.rrd")],
+                           capture_output=True, text=True, env=env, timeout=120)
+    text = stats.stdout + stats.stderr
+    for entity in ("world/overhead_camera/image", "world/overhead_camera/detections",
+                   "truth/segmentation", "metrics/pick_success", "metrics/sort_accuracy"):
+        assert entity in text, entity
+
+
+def test_own_detector_from_examples_runs(tmp_path):
+    r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=2", "--set",
+              "vision.detector=threshold_detector:ThresholdDetector", "--report", str(tmp_path / "r.json"),
+              env={"PYTHONPATH": str(ROOT / "examples")})
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["detector"] == "threshold_detector:ThresholdDetector"
+    a = report["accounting"]
+    assert a["spawned"] == a["binned"] + a["rejected"] + a["missed"] + a["dropped"] == 2
+
+
+@pytest.mark.parametrize(("args", "culprit"), [
+    (("--set", "vision.detector=no_such_module:Detector"), "no_such_module"),
+    (("--set", "vision.detector=cell.jobs.sort:NoSuchClass"), "NoSuchClass"),
+    (("--set", "vision.detector=not a name"), "vision.detector"),
+    (("--report", "/no/such/folder/r.json"), "/no/such/folder"),
+    (("--replay", "."), "is a folder"),
+    (("--calibration", "/no/such/calibration.json"), "/no/such/calibration.json"),
+    (("--calibration", "scenarios/sort.toml"), "sort.toml"),
+    (("--seed", "-1"), "--seed"),
+])
+def test_bad_input_is_one_line_naming_the_culprit(args, culprit, tmp_path):
+    r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", *args)
+    assert r.returncode == 2
+    last = r.stderr.strip().splitlines()[-1]
+    assert culprit in last and "Traceback" not in r.stderr, r.stderr
+
+
+def test_a_calibration_without_the_overhead_camera_is_refused(demo, tmp_path):
+    out, _ = demo
+    data = json.loads((out / "report.calibration.json").read_text())
+    for camera in data["cameras"]:
+        camera["name"] = "wrist"
+    wrist_only = tmp_path / "wrist.json"
+    wrist_only.write_text(json.dumps(data))
+    r = _cell("run", "scenarios/sort.toml", "--calibration", str(wrist_only))
+    assert r.returncode == 2 and "holds no overhead camera" in r.stderr, r.stderr

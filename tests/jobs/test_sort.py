@@ -1,0 +1,102 @@
+"""The sort job, closed loop: every sort scenario with 3 parts (default) and 20 (``-m slow``).
+
+The overhead camera is calibrated once per module (as ``cell calibrate`` does) and the
+calibration shared: the job acts on it, never on the simulator's camera.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from cell.jobs.score import OUTCOMES
+from cell.jobs.sort import run_sort
+from cell.scenario import load_scenario
+
+SCENARIOS = Path(__file__).parents[2] / "scenarios"
+SORT = ("sort", "sort_back", "sort_dim", "sort_glare", "sort_continuous")
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    from cell.calib.job import run_calibration
+
+    return run_calibration(load_scenario(SCENARIOS / "sort.toml"), camera="overhead",
+                           touch=False).calibration
+
+
+def _run(name: str, calibration, *overrides: str) -> dict:
+    scenario = load_scenario(SCENARIOS / f"{name}.toml", overrides=list(overrides))
+    return run_sort(scenario, calibration=calibration).report
+
+
+def _check_accounting(report: dict, parts: int) -> None:
+    a = report["accounting"]
+    assert a["spawned"] == parts
+    assert a["spawned"] == a["binned"] + a["rejected"] + a["missed"] + a["dropped"]
+    assert a["binned"] == a["binned_correct"] + a["binned_wrong"]
+    assert all(row["outcome"] in OUTCOMES for row in report["parts"])
+
+
+@pytest.mark.parametrize("name", SORT)
+def test_each_sort_scenario_sorts_three_parts(name, calibration):
+    report = _run(name, calibration, "parts.count=3")
+    _check_accounting(report, 3)
+    m = report["metrics"]
+    assert m["sort_accuracy"] >= 2 / 3, report["parts"]
+    assert m["pick_success"] >= 0.5
+    assert m["position_error_mm_p95"] < 2.0
+    assert m["real_time_factor"] > 0 and m["sim_time_s"] > 0
+
+
+def test_faults_are_recovered_or_accounted(calibration):
+    report = _run("sort_faults", calibration, "parts.count=4")
+    _check_accounting(report, 4)
+    results = [p["result"] for p in report["picks"]]
+    assert "grasp_failed" in results  # the 2nd grasp's vacuum failed, and was retried
+    assert "lost" in results  # the 3rd grasp's part fell off the cup
+    assert results.count("placed") >= 2
+    assert report["parts"][2]["truth"]["flipped"]
+    # a pick that failed with its part still there is retried from a fresh image
+    failed = report["picks"][results.index("grasp_failed")]
+    retried = report["picks"][results.index("grasp_failed") + 1]
+    assert retried["t"] > failed["t"]
+
+
+def test_same_seed_same_report(calibration):
+    def decisions(report: dict) -> list:
+        return [(p["t"], p["bin"], p["result"], p["detection"]["position"]) for p in report["picks"]]
+
+    a = _run("sort", calibration, "parts.count=2")
+    b = _run("sort", calibration, "parts.count=2")
+    assert decisions(a) == decisions(b)
+    assert [r["outcome"] for r in a["parts"]] == [r["outcome"] for r in b["parts"]]
+    assert a["metrics"]["sim_time_s"] == b["metrics"]["sim_time_s"]
+
+
+def test_a_part_the_robot_cannot_pick_is_let_go_and_missed(calibration):
+    # every pick fails (the vacuum never seals): after 'attempts' tries the part rides on
+    report = _run("sort", calibration, "parts.count=1", "faults.suction_fail=[1, 2]",
+                  "sort.attempts=2")
+    _check_accounting(report, 1)
+    assert [p["result"] for p in report["picks"]] == ["grasp_failed", "grasp_failed"]
+    assert report["parts"][0]["outcome"] == "missed"
+
+
+def test_low_confidence_goes_to_the_reject_bin(calibration):
+    report = _run("sort", calibration, "parts.count=2", "sort.min_material_confidence=1.0")
+    _check_accounting(report, 2)
+    assert {p["bin"] for p in report["picks"]} == {"reject"}
+    assert report["accounting"]["rejected"] == 2
+    assert report["metrics"]["sort_accuracy"] == 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", (*SORT, "sort_faults"))
+def test_each_sort_scenario_sorts_twenty_parts(name, calibration):
+    report = _run(name, calibration, "parts.count=20")
+    _check_accounting(report, 20)
+    if name != "sort_faults":
+        assert report["metrics"]["sort_accuracy"] >= 0.95
+        assert report["metrics"]["pick_success"] >= 0.95

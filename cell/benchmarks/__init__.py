@@ -24,6 +24,7 @@ BENCHMARKS: dict[str, str] = {
     "vision": "cell.benchmarks.vision",
     "pick": "cell.benchmarks.pick",
     "calib": "cell.benchmarks.calib",
+    "sort": "cell.benchmarks.sort",
 }
 
 _USAGE = f"usage: cell bench {{{','.join(BENCHMARKS)}}} [options]"

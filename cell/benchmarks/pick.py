@@ -41,14 +41,6 @@ _X_RANGE = 0.04  # pick-zone poses: x within +-this of PICK_ZONE (m)
 _Y_RANGE = 0.05  # and y within +-this of the belt's centre line (m)
 
 
-def _in_bin(pos: np.ndarray, bin_name: str) -> bool:
-    from cell.sim import layout
-
-    centre = layout.BINS[bin_name]
-    half = np.array(layout.BIN_SIZE[:2]) / 2
-    return bool(np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2])
-
-
 def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
              noise_deg: float = 0.0) -> dict:
     """Run ``poses`` pick-and-place cycles of ``kind``; returns the figures as a dict.
@@ -106,7 +98,7 @@ def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
             ik_ms += [1000 * t for t in result.ik_times]
             ik_its += list(result.ik_iterations)
         world.step(150)  # let the part come to rest in the bin
-        ok += _in_bin(world.part_pose(part.id)[0], part.material)
+        ok += world.place_of(part.id) == part.material
     world.close()
     mean_cycle = _mean(cycles)
     return {

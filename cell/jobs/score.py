@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from cell.catalogue import KINDS
-from cell.sim import layout
 
 __all__ = ["OUTCOMES", "PickRecord", "Scorekeeper", "metrics_of"]
 
@@ -73,20 +72,6 @@ class Scorekeeper:
         self.matches[record.index] = _Match(part.id, 1000.0 * min(gaps),
                                             _yaw_error(det, part.kind, self.world.part_yaw(part.id)))
 
-    def _place(self, part: object) -> str:
-        """Where ``part`` lies now: a bin's name, ``belt``, ``caught`` or ``elsewhere``."""
-        if self.world.is_caught(part.id):
-            return "caught"
-        pos = self.world.part_pose(part.id)[0]
-        half = np.array(layout.BIN_SIZE[:2]) / 2
-        for name, centre in layout.BINS.items():
-            if np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2]:
-                return name
-        on_belt = (layout.BELT_X[0] <= pos[0] <= layout.BELT_X[1]
-                   and abs(pos[1] - layout.CONVEYOR_Y) <= layout.BELT_WIDTH / 2
-                   and pos[2] > layout.BELT_TOP - 0.01)
-        return "belt" if on_belt else "elsewhere"
-
     def rows(self, records: list[PickRecord]) -> list[dict]:
         """One row per spawned part: its truth, the last detection acted on, the bin
         chosen, the attempts, its outcome and errors, the cycle time of its placing."""
@@ -99,7 +84,7 @@ class Scorekeeper:
             mine = by_part.get(part.id, [])
             last = mine[-1] if mine else None
             match = self.matches[last.index] if last else None
-            place = self._place(part)
+            place = self.world.place_of(part.id)
             placed = [r for r in mine if r.result == "placed"]
             out.append({
                 "id": part.id,

@@ -52,6 +52,10 @@ class SortSettings:
         0.6, lo=0.0, hi=1.0, doc="a part whose material confidence is lower goes to the reject bin")
     attempts: int = setting(
         3, lo=1, hi=10, doc="pick attempts at one part (each from a fresh image) before it is let go")
+    relooks: int = setting(
+        2, lo=0, hi=10,
+        doc="index mode: further looks when a part blocks the barrier but none is found, or "
+        "the part to pick would be rejected as unsure (each image has its own sensor noise)")
     retakes: int = setting(
         20, lo=1, hi=1000, doc="captures retaken while the camera delivers unusable frames")
     retake_wait: float = setting(

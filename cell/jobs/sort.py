@@ -220,11 +220,22 @@ class _Job:
         self._wait(0.3)
         return True
 
+    def _look_for_parts(self) -> tuple[Capture | None, list]:
+        """Index mode: a look and its pick candidates; looked again (``sort.relooks``
+        times, the sensor's noise differs each time) while a part blocks the barrier but
+        none is found, or while the first candidate would be rejected as unsure."""
+        for _ in range(self.settings.relooks + 1):
+            cap = self._look()
+            todo = self._candidates(cap, 0.0) if cap is not None else []
+            unsure = bool(todo) and choose_bin(todo[0], self.settings) == "reject"
+            if cap is None or not (unsure or (not todo and self.world.barrier_blocked)):
+                break
+        return cap, todo
+
     def run_index(self) -> None:
         while self._wait_for_part():
             for _ in range(4 * self.scenario.parts.count):
-                cap = self._look()
-                todo = self._candidates(cap, 0.0) if cap is not None else []
+                cap, todo = self._look_for_parts()
                 if not todo:
                     break
                 self._pick(todo[0], cap)

@@ -53,6 +53,8 @@ __all__ = ["CAMERAS", "MSAA_MAX", "PartInfo", "World", "build_spec"]
 
 CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
+_BIN_CHECK_EVERY = 50  # physics steps between looks for parts come to rest in a bin
+_AT_REST = 0.01  # m/s and rad/s: a part in a bin moving slower than this has come to rest
 
 
 def _offstage_slot(part_id: int) -> np.ndarray:
@@ -166,6 +168,8 @@ class World:
             self._part_of_geom[g] = body_to_part.get(int(self.model.geom_bodyid[g]), 0)
         self.spawned = 0
         self.caught_ids: list[int] = []
+        self.binned: dict[int, str] = {}  # part id -> the bin it came to rest in (then parked)
+        self._steps = 0
         self._live = np.zeros(0, dtype=np.int64)  # body ids of the spawned, uncaught parts
         self._travel_at_spawn = -math.inf
         self.conveyor = Conveyor(self.model, scenario.conveyor.speed, scenario.conveyor.mode)
@@ -284,6 +288,9 @@ class World:
             mujoco.mj_step(self.model, self.data)
             if self._live.size:
                 self._catch()
+                self._steps += 1
+                if self._steps % _BIN_CHECK_EVERY == 0:
+                    self._settle_binned()
 
     def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
         """Run until the light barrier is broken, then ``settle`` seconds more.
@@ -307,9 +314,9 @@ class World:
 
     @property
     def on_stage(self) -> list[PartInfo]:
-        """The spawned parts still in the cell (not caught), in spawn order."""
-        caught = set(self.caught_ids)
-        return [p for p in self.parts[: self.spawned] if p.id not in caught]
+        """The spawned parts still in the cell (not caught, not resting in a bin), in spawn order."""
+        gone = set(self.caught_ids) | set(self.binned)
+        return [p for p in self.parts[: self.spawned] if p.id not in gone]
 
     def is_caught(self, part_id: int) -> bool:
         """True once part ``part_id`` has fallen into the catch bin (it is parked off stage)."""
@@ -331,6 +338,47 @@ class World:
             self.caught_ids.append(part.id)
         self._live = self._live[~hit]
         mujoco.mj_forward(self.model, self.data)  # poses and sensors show the bin emptied
+
+    def _settle_binned(self) -> None:
+        """Park the parts that have come to rest inside a bin, recording which: a bin's
+        pile would otherwise stay in the contact set and slow every later step."""
+        pos = self.data.xpos[self._live]
+        half = np.array(layout.BIN_SIZE[:2]) / 2
+        done = np.zeros(len(self._live), bool)
+        for name, centre in layout.BINS.items():
+            inside = (np.all(np.abs(pos[:, :2] - centre[:2]) <= half, axis=1)
+                      & (pos[:, 2] < layout.BIN_SIZE[2]))
+            for k in np.flatnonzero(inside):
+                body = int(self._live[k])
+                if np.abs(self.data.cvel[body]).max() < _AT_REST:
+                    part = self.parts[self._part_of_body[body] - 1]
+                    self.binned[part.id] = name
+                    self._park(part)
+                    done[k] = True
+        if done.any():
+            self._live = self._live[~done]
+            mujoco.mj_forward(self.model, self.data)
+
+    def place_of(self, part_id: int) -> str:
+        """GROUND TRUTH, for scoring only: where part ``part_id`` is: ``waiting`` (not
+        spawned yet), a bin's name (resting in it and parked, or inside it now), ``caught``
+        (fell off the belt's end), ``belt`` (on the belt) or ``elsewhere`` (the table, the
+        floor, a bin's rim, the cup)."""
+        if part_id > self.spawned:
+            return "waiting"
+        if part_id in self.binned:
+            return self.binned[part_id]
+        if self.is_caught(part_id):
+            return "caught"
+        pos = self.part_pose(part_id)[0]
+        half = np.array(layout.BIN_SIZE[:2]) / 2
+        for name, centre in layout.BINS.items():
+            if np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2]:
+                return name
+        on_belt = (layout.BELT_X[0] <= pos[0] <= layout.BELT_X[1]
+                   and abs(pos[1] - layout.CONVEYOR_Y) <= layout.BELT_WIDTH / 2
+                   and pos[2] > layout.BELT_TOP - 0.01)
+        return "belt" if on_belt else "elsewhere"
 
     def _park(self, part: PartInfo) -> None:
         """Put ``part`` back at its off-stage slot, floating at rest."""

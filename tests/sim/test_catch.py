@@ -53,5 +53,8 @@ def test_only_the_catch_zone_catches(world_factory):
     past_end = world.place_next_part(layout.BELT_X[1] + 0.05, layout.CONVEYOR_Y, 0.0)
     world.step(100)
     assert world.caught_ids == [past_end.id]
-    assert [p.id for p in world.on_stage] == [in_bin.id, beside.id]
-    assert world.part_pose(in_bin.id)[0][2] < 0.05 and world.part_pose(beside.id)[0][2] < 0.05
+    # the sorted part came to rest in its bin: recorded there and parked out of the contacts
+    assert world.place_of(in_bin.id) == "metal" and world.part_pose(in_bin.id)[0][0] >= 3.0
+    assert [p.id for p in world.on_stage] == [beside.id]
+    assert world.place_of(beside.id) == "elsewhere" and world.part_pose(beside.id)[0][2] < 0.05
+    assert world.place_of(past_end.id) == "caught"

@@ -7,8 +7,9 @@
 - **Grasp**: the cup goes where the kind's grasp point is (``cell.robot.pick.GRASP_POINTS``);
   a part of unknown kind is grasped as the catalogue kind nearest to its footprint.
 - **Order**: the part furthest downstream within the pick window first (it is the one
-  the belt brings out of reach first); partial parts (at the image border) wait until
-  they are in full view.
+  the belt brings out of reach first), except that a part with a taller one so close that
+  the cup would land on it waits until that one is gone; partial parts (at the image
+  border) wait until they are in full view.
 - **Attempts**: each spot on the belt where a pick failed is remembered; after
   ``sort.attempts`` tries the part there is let go (it rides on and is counted ``missed``
   if it leaves the pick zone). A spot is looked for where it was and where the belt (by
@@ -28,6 +29,7 @@ from cell.sim import layout
 __all__ = ["Attempts", "choose_bin", "grasp_kind", "pick_candidates"]
 
 _SAME_SPOT = 0.012  # m: a detection this near a failed spot (moved with the belt) is that part
+_CUP_REACH = 0.0145  # m: the suction cup's radius (cell.sim.arm, 9.5 mm) and 5 mm to spare
 
 
 def choose_bin(det: object, settings: SortSettings) -> str:
@@ -58,7 +60,20 @@ def pick_candidates(detections: list, settings: SortSettings, *, shift: float = 
            if d.position is not None and not d.partial
            and x0 + lo <= d.position[0] + shift <= x0 + hi
            and abs(d.position[1] - layout.CONVEYOR_Y) < layout.BELT_WIDTH / 2]
-    return sorted(out, key=lambda d: -d.position[0])
+    return sorted(out, key=lambda d: (_under_a_taller(d, out), -d.position[0]))
+
+
+def _under_a_taller(det: object, others: list) -> bool:
+    """Whether a taller part lies so close to ``det`` that the cup, coming down on
+    ``det``, would land on it (then that part is picked first)."""
+    height = KINDS[grasp_kind(det)].height
+    for o in others:
+        if o is det or KINDS[grasp_kind(o)].height <= height:
+            continue
+        gap = np.hypot(o.position[0] - det.position[0], o.position[1] - det.position[1])
+        if gap < _CUP_REACH + max(o.size) / 2:
+            return True
+    return False
 
 
 @dataclass

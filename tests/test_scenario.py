@@ -284,3 +284,16 @@ def test_bad_seed_argument_is_reported_as_seed_not_set(tmp_path):
     assert load_scenario(f, overrides=["seed=7"], seed=11).seed == 11
     with pytest.raises(ScenarioError, match=r"^--seed an integer of 5001 digits: key 'seed'"):
         load_scenario(f, seed=10**5000)
+
+
+def test_sort_window_and_fault_spans_are_checked():
+    with pytest.raises(ScenarioError, match="sort.pick_window"):
+        scenario_from_dict({"sort": {"pick_window": [0.1, -0.1]}})
+    with pytest.raises(ScenarioError, match="faults.blackout"):
+        scenario_from_dict({"faults": {"blackout": [1.0]}})
+    with pytest.raises(ScenarioError, match="faults.touching"):
+        scenario_from_dict({"faults": {"touching": [1]}})
+    with pytest.raises(ScenarioError, match="capture.presets"):
+        scenario_from_dict({"capture": {"presets": ["back", "front", "dim"]}})
+    with pytest.raises(ScenarioError, match="vision.detector"):
+        scenario_from_dict({"vision": {"detector": "rm -rf /"}})

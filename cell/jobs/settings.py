@@ -62,10 +62,17 @@ class SortSettings:
         0.25, lo=0.01, hi=10.0, doc="wait before a capture is retaken (s)")
     arrival_timeout: float = setting(
         30.0, lo=1.0, hi=600.0,
-        doc="index mode: the job ends when no part breaks the light barrier for this long (s)")
+        doc="the job ends when no part breaks the light barrier (index mode), or the belt's "
+        "encoder does not move (continuous mode), for this long (s)")
     pick_window: tuple[float, ...] = setting(
         (-0.12, 0.12), lo=-0.3, hi=0.3, length=2,
         doc="the stretch of belt the arm picks from, along x from the pick zone (m)")
+
+    def _validate(self, where: str) -> None:
+        lo, hi = self.pick_window
+        if lo >= hi:
+            raise ScenarioError(f"{where}: key 'sort.pick_window' must be [low, high] with "
+                                f"low < high (m), got [{lo:g}, {hi:g}]")
 
 
 @dataclass(frozen=True)

@@ -256,7 +256,13 @@ class _Job:
         belt = layout.BELT_X[1] - layout.SPAWN_X
         limit = self.scenario.parts.count * (self.scenario.parts.spacing + belt) / max(
             self.scenario.conveyor.speed, 1e-3) + 60.0
+        moved_at, last = self.world.time, self.world.belt_encoder()
         while self.world.time < limit and not self._all_through(layout.BELT_X[1]):
+            if self.world.belt_encoder() != last:
+                moved_at, last = self.world.time, self.world.belt_encoder()
+            elif self.world.time - moved_at > self.settings.arrival_timeout:
+                self._event("the belt has not moved for sort.arrival_timeout: the job ends", "warning")
+                return
             cap = self._look()
             v = self._measure_belt()
             todo = self._candidates(cap, v * _LEAD) if cap is not None else []

@@ -100,3 +100,10 @@ def test_each_sort_scenario_sorts_twenty_parts(name, calibration):
     if name != "sort_faults":
         assert report["metrics"]["sort_accuracy"] >= 0.95
         assert report["metrics"]["pick_success"] >= 0.95
+
+
+def test_a_belt_that_never_moves_ends_the_job(calibration):
+    report = _run("sort_continuous", calibration, "parts.count=2", "conveyor.speed=0",
+                  "sort.arrival_timeout=5")
+    _check_accounting(report, 1)  # the feeder put out one part; it never reached the arm
+    assert report["metrics"]["sim_time_s"] < 10 and report["parts"][0]["outcome"] == "missed"

@@ -1,0 +1,235 @@
+"""The sort job's loop: one run's cell, robot, eye, decisions and records (``SortLoop``).
+
+:func:`cell.jobs.sort.run_sort` builds a ``SortLoop`` and runs one of its two modes:
+
+- ``run_index``: the belt runs until a part breaks the light barrier and stops; the arm
+  picks every part it can from the pick window (looking again after each pick, and
+  once more while unsure), then lets go of whatever still blocks the barrier;
+- ``run_continuous``: the belt never stops; the arm meets each part where the belt's
+  encoder says it will be when the cup gets there.
+
+The loop reads only images (through :class:`~cell.jobs.eye.Eye`), the light barrier, the
+belt's encoder, the vacuum switch (inside :class:`~cell.robot.PickPlace`), the feeder's
+counter and the calibrated camera model. :class:`~cell.jobs.score.Scorekeeper` is handed
+each pick to score; nothing it holds flows back into a decision.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from cell.camera import CameraModel
+from cell.errors import GraspError, IKError, MotionError
+from cell.jobs.detectors import load_detector
+from cell.jobs.eye import Capture, Eye
+from cell.jobs.policy import Attempts, choose_bin, grasp_kind, pick_candidates
+from cell.jobs.score import PickRecord, Scorekeeper
+from cell.scenario import Scenario
+from cell.sim import layout
+
+__all__ = ["Progress", "SortLoop"]
+
+Progress = Callable[[int, int, str], None]
+_LEAD = 1.0  # s: about how long from an image to the cup reaching a part (continuous mode)
+_IDLE = 0.1  # s: the wait before looking again when nothing can be picked (continuous mode)
+_EMPTY_SPOT = 0.008  # m: a detection this near a placed part's spot means it is still there
+_STATE_EVERY = 0.04  # s: the replay's 3D states, 25 per simulated second
+
+
+class SortLoop:
+    """One run's state: the cell, the robot, the eye, the records and the timers.
+
+    ``replay``: a callable making the run's :class:`~cell.replay.Replay` from the world,
+    or None; ``progress(done, total, note)`` follows the parts."""
+
+    def __init__(self, scenario: Scenario, camera: CameraModel, *, replay: object | None,
+                 progress: Progress | None) -> None:
+        from cell.robot.pick import PickPlace
+        from cell.sim import World
+
+        self.scenario, self.settings = scenario, scenario.sort
+        self.timers = {"physics": 0.0, "render": 0.0, "detect": 0.0, "replay": 0.0}
+        detector = load_detector(scenario.vision)  # (a bad name fails before the cell is built)
+        self.world = World.build(scenario)
+        self.replay = replay(self.world) if replay else None
+        self.skill = PickPlace(self.world.model, self.world.data, self._step, scenario.robot)
+        self.eye = Eye(self.world, camera, detector, scenario,
+                       truth=self.replay is not None, timers=self.timers)
+        self.keeper = Scorekeeper(self.world)
+        self.records: list[PickRecord] = []
+        self.attempts = Attempts(self.settings.attempts)
+        self.progress = progress
+        self.last: Capture | None = None
+        self._to_verify: PickRecord | None = None
+        self._let_go = 0
+        self._all_out_at: float | None = None
+        self._next_state = 0.0
+        self._encoder = (self.world.time, self.world.belt_encoder())
+        self._belt_speed = 0.0
+
+    # --- time -------------------------------------------------------------------------
+    def _step(self, n: int = 1) -> None:
+        """Physics steps (timed), logging the replay's 3D state as time passes."""
+        t0 = time.perf_counter()
+        self.world.step(n)
+        self.timers["physics"] += time.perf_counter() - t0
+        if self.replay is not None and self.world.time >= self._next_state:
+            t0 = time.perf_counter()
+            self.replay.log_state(self.world.time, self.world)
+            self._next_state = self.world.time + _STATE_EVERY
+            self.timers["replay"] += time.perf_counter() - t0
+
+    def _wait(self, seconds: float) -> None:
+        self._step(max(1, round(seconds / self.world.model.opt.timestep)))
+
+    def _measure_belt(self) -> float:
+        """The belt's speed (m/s) from its encoder since the last reading (at least 0.05 s)."""
+        t, e = self.world.time, self.world.belt_encoder()
+        if t - self._encoder[0] >= 0.05:
+            self._belt_speed = (e - self._encoder[1]) / (t - self._encoder[0])
+            self._encoder = (t, e)
+        return self._belt_speed
+
+    # --- looking ----------------------------------------------------------------------
+    def _look(self) -> Capture | None:
+        cap = self.eye.look()
+        if cap is None:
+            self._event("the camera delivered only black frames; nothing acted on", "warning")
+            return None
+        if cap.detections or self.last is None:
+            self.last = cap  # the last capture that saw something (for detections.png)
+        if cap.retakes:
+            self._event(f"{cap.retakes} black frame(s) retaken", "warning")
+        if self.replay is not None:
+            t0 = time.perf_counter()
+            self.replay.log_capture(cap.t, rgb=cap.image, detections=cap.detections, seg=cap.seg,
+                                    camera=self.eye.camera, preset=next(iter(cap.images)))
+            self.timers["replay"] += time.perf_counter() - t0
+        self._verify(cap)
+        return cap
+
+    def _verify(self, cap: Capture) -> None:
+        """The second look: is the last placed part's spot (moved on with the belt) empty?"""
+        record, self._to_verify = self._to_verify, None
+        if record is None:
+            return
+        x, y = record.detection["position"]
+        x += self.world.belt_encoder() - record.encoder
+        still = any(d.position is not None and abs(d.position[0] - x) < _EMPTY_SPOT
+                    and abs(d.position[1] - y) < _EMPTY_SPOT for d in cap.detections)
+        record.verified = not still
+        if still:
+            self._event(f"pick {record.index}: the part still lies at its spot", "warning")
+
+    def _candidates(self, cap: Capture, shift: float) -> list:
+        enc = self.world.belt_encoder()
+        return [d for d in pick_candidates(cap.detections, self.settings, shift=shift)
+                if not self.attempts.given_up(d.position, enc)]
+
+    # --- acting -----------------------------------------------------------------------
+    def _pick(self, det: object, cap: Capture, *, vx: float = 0.0) -> None:
+        from cell.robot.pick import PartTarget
+
+        record = PickRecord(len(self.records) + 1, cap.t, det.to_dict(),
+                            choose_bin(det, self.settings), encoder=self.world.belt_encoder())
+        self.records.append(record)
+        self.keeper.attach(record, det)  # scoring only: the job never reads what it matched
+        target = PartTarget(grasp_kind(det), det.position[0], det.position[1], det.yaw,
+                            record.bin, vx=vx, seen_at=cap.t)
+        try:
+            result = self.skill.run(target)
+        except IKError as exc:
+            record.result, record.message = "unreachable", str(exc)
+        except GraspError as exc:
+            record.result, record.message = ("lost" if exc.lost else "grasp_failed"), str(exc)
+        except MotionError as exc:
+            record.result, record.message = "blocked", str(exc)
+        else:
+            record.result, record.cycle_time = "placed", result.cycle_time
+            self._to_verify = record
+        if record.result not in ("placed", "lost"):
+            self.attempts.failed(det.position, record.encoder)
+            self._event(f"pick {record.index} ({det.kind}): {record.result}: {record.message}", "warning")
+        self._after_pick()
+
+    def _after_pick(self) -> None:
+        placed = sum(r.result == "placed" for r in self.records)
+        if self.replay is not None:
+            self.replay.log_metrics(self.world.time, {
+                "picks": float(len(self.records)), "placed": float(placed),
+                "pick_success": placed / len(self.records)})
+        if self.progress is not None:
+            total = self.scenario.parts.count
+            self.progress(min(placed + self._let_go, total), total,
+                          f"{placed} placed, t = {self.world.time:.0f} s")
+
+    def _event(self, text: str, level: str = "info") -> None:
+        if self.replay is not None:
+            self.replay.log_event(self.world.time, text, level=level)
+
+    # --- the two modes ----------------------------------------------------------------
+    def _wait_for_part(self) -> bool:
+        """Index mode: run the belt until a part stops at the barrier (then let it settle);
+        False when none comes within ``sort.arrival_timeout``."""
+        conveyor = self.world.conveyor
+        while conveyor.release > 0.0:  # a part let go rides on past the barrier first
+            self._step(10)
+        end = self.world.time + self.settings.arrival_timeout
+        while not self.world.barrier_blocked:
+            if self.world.time >= end or self._all_through(layout.BARRIER_X):
+                return False
+            self._step(10)
+        self._wait(0.3)
+        return True
+
+    def _look_for_parts(self) -> tuple[Capture | None, list]:
+        """Index mode: a look and its pick candidates; looked again (``sort.relooks``
+        times, the sensor's noise differs each time) while a part blocks the barrier but
+        none is found, or while the first candidate would be rejected as unsure."""
+        for _ in range(self.settings.relooks + 1):
+            cap = self._look()
+            todo = self._candidates(cap, 0.0) if cap is not None else []
+            unsure = bool(todo) and choose_bin(todo[0], self.settings) == "reject"
+            if cap is None or not (unsure or (not todo and self.world.barrier_blocked)):
+                break
+        return cap, todo
+
+    def run_index(self) -> None:
+        while self._wait_for_part():
+            for _ in range(4 * self.scenario.parts.count):
+                cap, todo = self._look_for_parts()
+                if not todo:
+                    break
+                self._pick(todo[0], cap)
+            if self.world.barrier_blocked:  # what is left at the barrier cannot be picked
+                self._let_go += 1
+                self._event("a part at the barrier is let go", "warning")
+                self.world.conveyor.release_part()
+
+    def _all_through(self, x: float) -> bool:
+        """Whether the feeder has put out its last part (its counter) and the belt has run
+        far enough since (its encoder) to carry that part past ``x`` (m)."""
+        if self._all_out_at is None and self.world.spawned == len(self.world.parts):
+            self._all_out_at = self.world.belt_encoder()
+        return (self._all_out_at is not None
+                and self.world.belt_encoder() - self._all_out_at > x - layout.SPAWN_X + 0.03)
+
+    def run_continuous(self) -> None:
+        belt = layout.BELT_X[1] - layout.SPAWN_X
+        limit = self.scenario.parts.count * (self.scenario.parts.spacing + belt) / max(
+            self.scenario.conveyor.speed, 1e-3) + 60.0
+        moved_at, last = self.world.time, self.world.belt_encoder()
+        while self.world.time < limit and not self._all_through(layout.BELT_X[1]):
+            if self.world.belt_encoder() != last:
+                moved_at, last = self.world.time, self.world.belt_encoder()
+            elif self.world.time - moved_at > self.settings.arrival_timeout:
+                self._event("the belt has not moved for sort.arrival_timeout: the job ends", "warning")
+                return
+            cap = self._look()
+            v = self._measure_belt()
+            todo = self._candidates(cap, v * _LEAD) if cap is not None else []
+            if todo:
+                self._pick(todo[0], cap, vx=v)
+            else:
+                self._wait(_IDLE)

@@ -46,14 +46,16 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _progress(stream) -> object:
+def _progress(stream, what: str, unit: str) -> object:
+    """A one-line progress bar on ``stream`` when it is a terminal, else None."""
     if not stream.isatty():
         return None
 
     def show(done: int, total: int, note: str) -> None:
         width = 30
         filled = round(width * done / max(1, total))
-        stream.write(f"\rsort [{'#' * filled}{'.' * (width - filled)}] {done}/{total} parts ({note})\x1b[K")
+        stream.write(f"\r{what} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} {unit} "
+                     f"({note})\x1b[K")
         stream.flush()
 
     return show
@@ -87,8 +89,10 @@ def main(argv: list[str]) -> int:
         print("no --calibration given: calibrating the overhead camera first", file=sys.stderr)
     from cell.jobs.sort import run_sort
 
-    progress = _progress(sys.stderr)
-    run = run_sort(scenario, calibration=calibration, progress=progress, replay=replay_path)
+    progress = _progress(sys.stderr, "sort", "parts")
+    calibrating = _progress(sys.stderr, "calibrate", "views") if calibration is None else None
+    run = run_sort(scenario, calibration=calibration, progress=progress, replay=replay_path,
+                   calibration_progress=calibrating)
     if progress is not None:
         sys.stderr.write("\n")
     report = run.report

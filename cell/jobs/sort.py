@@ -70,12 +70,14 @@ def overhead_model(calibration: object, scenario: Scenario, *, where: str) -> Ca
 
 
 def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = None,
-             progress: Progress | None = None, replay: str | Path | None = None) -> SortRun:
+             progress: Progress | None = None, replay: str | Path | None = None,
+             calibration_progress: Progress | None = None) -> SortRun:
     """Run the sort job of ``scenario``; returns a :class:`SortRun`.
 
     ``calibration``: a ``CalibrationFile``, a path to one, or None to calibrate the
     overhead camera first (its figures go into the report). ``replay``: write a rerun
-    recording there. ``progress(done, total, note)`` follows the parts.
+    recording there. ``progress(done, total, note)`` follows the parts and
+    ``calibration_progress`` (the same form) the calibration's views.
     """
     from cell.calib.calfile import CalibrationFile, load_calibration
 
@@ -84,7 +86,8 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
     if calibration is None:
         from cell.calib.job import run_calibration
 
-        cal_run = run_calibration(scenario, camera="overhead", touch=False)
+        cal_run = run_calibration(scenario, camera="overhead", touch=False,
+                                  progress=calibration_progress)
         calibration = cal_run.calibration
         report_cal = {"source": "calibrated in this run", "wall_s": cal_run.wall_s,
                       "report": cal_run.report["cameras"]["overhead"]}

@@ -74,9 +74,9 @@ def run(*, parts: int = 20, scenarios: tuple[str, ...] = SCENARIOS, replay: bool
     cal = run_calibration(base, camera="overhead", touch=False)
     out = {"benchmark": "sort", "parts": parts, "seed_base": SEED_BASE,
            "calibration_wall_s": cal.wall_s, "scenarios": {}}
-    for k, name in enumerate(scenarios):
+    for name in scenarios:  # each scenario has its own seed, whichever others run
         scenario = load_scenario(_ROOT / f"{name}.toml", overrides=[f"parts.count={parts}"],
-                                 seed=SEED_BASE + 1 + k)
+                                 seed=SEED_BASE + 1 + SCENARIOS.index(name))
         report = run_sort(scenario, calibration=cal.calibration).report
         a = report["accounting"]
         row = {"seed": scenario.seed, "metrics": report["metrics"], "accounting": a,

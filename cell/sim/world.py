@@ -11,8 +11,10 @@ and falling they move only through gravity and contact forces; once a part's cen
 dropped ``layout.CATCH_DROP`` below the belt's top past the belt's end (the catch line,
 above the bin's rim) it is caught: counted in ``World.caught`` and parked back at its own
 off-stage slot, floating, at rest and out of reach of every other geom, for the rest of
-the run. So nothing piles up past the belt, the contact set holds only the parts on
-stage, and a run's cost grows linearly with its length.
+the run; a part come to rest in a bin is parked the same way, its bin recorded
+(``World.place_of``). So nothing piles up, the contact set holds only the parts still in
+play, and a run's cost grows linearly with its length (:mod:`cell.sim.stage` keeps
+this account).
 
 For the overhead camera's eye-to-hand calibration, ``World.build(...,
 flange_board=True, msaa=4)`` mounts a checkerboard plate on the tool
@@ -28,7 +30,6 @@ changes which parts come.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -48,33 +49,11 @@ from cell.sim.flange_board import corners_in_flange
 from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
 from cell.sim.parts import add_part, add_part_materials
 from cell.sim.sensor import SensorModel
+from cell.sim.stage import PartInfo, Stage, offstage_slot
 
 __all__ = ["CAMERAS", "MSAA_MAX", "PartInfo", "World", "build_spec"]
 
 CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
-_OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
-_BIN_CHECK_EVERY = 50  # physics steps between looks for parts come to rest in a bin
-_AT_REST = 0.01  # m/s and rad/s: a part in a bin moving slower than this has come to rest
-
-
-def _offstage_slot(part_id: int) -> np.ndarray:
-    """Where part ``part_id`` floats before it is spawned and after it is caught."""
-    return _OFFSTAGE + np.array([0.1 * (part_id % 20), 0.1 * (part_id // 20), 0.0])
-
-
-@dataclass(frozen=True)
-class PartInfo:
-    """One part of the run: ``id`` (1-based, as in segmentation), kind, finish (a
-    catalogue material name), material class (``metal``/``plastic``), colour, body id,
-    and its defect (``none``: defects come with the inspection job)."""
-
-    id: int
-    kind: str
-    finish: str
-    material: str
-    colour: str
-    body_id: int
-    defect: str = "none"
 
 
 def _draw_sequence(scenario: Scenario, rng: np.random.Generator) -> list[tuple[str, str]]:
@@ -119,7 +98,7 @@ def build_spec(
     if arm:
         add_arm(spec, flange_board=flange_board)
     for i, (kind, finish) in enumerate(sequence, start=1):
-        body = add_part(spec, f"part_{i}", kind, finish, _offstage_slot(i))
+        body = add_part(spec, f"part_{i}", kind, finish, offstage_slot(i))
         body.gravcomp = 1.0
     return spec
 
@@ -163,14 +142,10 @@ class World:
             self.parts.append(PartInfo(i, kind, finish, m.material, m.colour, bid))
         self._part_of_geom = np.zeros(self.model.ngeom, dtype=np.int32)
         body_to_part = {p.body_id: p.id for p in self.parts}
-        self._part_of_body = body_to_part
         for g in range(self.model.ngeom):
             self._part_of_geom[g] = body_to_part.get(int(self.model.geom_bodyid[g]), 0)
         self.spawned = 0
-        self.caught_ids: list[int] = []
-        self.binned: dict[int, str] = {}  # part id -> the bin it came to rest in (then parked)
-        self._steps = 0
-        self._live = np.zeros(0, dtype=np.int64)  # body ids of the spawned, uncaught parts
+        self.stage = Stage(self.model, self.data, self.parts)
         self._travel_at_spawn = -math.inf
         self.conveyor = Conveyor(self.model, scenario.conveyor.speed, scenario.conveyor.mode)
         self.faults = FaultInjector(self.model, self.data, scenario.faults)
@@ -286,11 +261,7 @@ class World:
                 self._spawn_upstream()
             self.faults.step()
             mujoco.mj_step(self.model, self.data)
-            if self._live.size:
-                self._catch()
-                self._steps += 1
-                if self._steps % _BIN_CHECK_EVERY == 0:
-                    self._settle_binned()
+            self.stage.after_step()
 
     def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
         """Run until the light barrier is broken, then ``settle`` seconds more.
@@ -308,56 +279,24 @@ class World:
 
     # --- parts ------------------------------------------------------------------------
     @property
+    def caught_ids(self) -> list[int]:
+        """The parts that fell off the belt's end into the catch bin, in order."""
+        return self.stage.caught_ids
+
+    @property
     def caught(self) -> int:
         """How many parts fell off the belt's end into the catch bin (and were parked)."""
-        return len(self.caught_ids)
+        return len(self.stage.caught_ids)
 
     @property
     def on_stage(self) -> list[PartInfo]:
         """The spawned parts still in the cell (not caught, not resting in a bin), in spawn order."""
-        gone = set(self.caught_ids) | set(self.binned)
+        gone = set(self.stage.caught_ids) | set(self.stage.binned)
         return [p for p in self.parts[: self.spawned] if p.id not in gone]
 
     def is_caught(self, part_id: int) -> bool:
         """True once part ``part_id`` has fallen into the catch bin (it is parked off stage)."""
-        return part_id in self.caught_ids
-
-    def _catch(self) -> None:
-        """Park the parts whose centre has crossed the catch line past the belt's end."""
-        pos = self.data.xpos[self._live]
-        hit = (
-            (pos[:, 0] > layout.BELT_X[1])
-            & (np.abs(pos[:, 1] - layout.CONVEYOR_Y) < layout.CATCH_HALF_WIDTH)
-            & (pos[:, 2] < layout.BELT_TOP - layout.CATCH_DROP)
-        )
-        if not hit.any():
-            return
-        for body in self._live[hit]:
-            part = self.parts[self._part_of_body[int(body)] - 1]
-            self._park(part)
-            self.caught_ids.append(part.id)
-        self._live = self._live[~hit]
-        mujoco.mj_forward(self.model, self.data)  # poses and sensors show the bin emptied
-
-    def _settle_binned(self) -> None:
-        """Park the parts that have come to rest inside a bin, recording which: a bin's
-        pile would otherwise stay in the contact set and slow every later step."""
-        pos = self.data.xpos[self._live]
-        half = np.array(layout.BIN_SIZE[:2]) / 2
-        done = np.zeros(len(self._live), bool)
-        for name, centre in layout.BINS.items():
-            inside = (np.all(np.abs(pos[:, :2] - centre[:2]) <= half, axis=1)
-                      & (pos[:, 2] < layout.BIN_SIZE[2]))
-            for k in np.flatnonzero(inside):
-                body = int(self._live[k])
-                if np.abs(self.data.cvel[body]).max() < _AT_REST:
-                    part = self.parts[self._part_of_body[body] - 1]
-                    self.binned[part.id] = name
-                    self._park(part)
-                    done[k] = True
-        if done.any():
-            self._live = self._live[~done]
-            mujoco.mj_forward(self.model, self.data)
+        return part_id in self.stage.caught_ids
 
     def place_of(self, part_id: int) -> str:
         """GROUND TRUTH, for scoring only: where part ``part_id`` is: ``waiting`` (not
@@ -366,29 +305,7 @@ class World:
         floor, a bin's rim, the cup)."""
         if part_id > self.spawned:
             return "waiting"
-        if part_id in self.binned:
-            return self.binned[part_id]
-        if self.is_caught(part_id):
-            return "caught"
-        pos = self.part_pose(part_id)[0]
-        half = np.array(layout.BIN_SIZE[:2]) / 2
-        for name, centre in layout.BINS.items():
-            if np.all(np.abs(pos[:2] - centre[:2]) <= half) and pos[2] < layout.BIN_SIZE[2]:
-                return name
-        on_belt = (layout.BELT_X[0] <= pos[0] <= layout.BELT_X[1]
-                   and abs(pos[1] - layout.CONVEYOR_Y) <= layout.BELT_WIDTH / 2
-                   and pos[2] > layout.BELT_TOP - 0.01)
-        return "belt" if on_belt else "elsewhere"
-
-    def _park(self, part: PartInfo) -> None:
-        """Put ``part`` back at its off-stage slot, floating at rest."""
-        adr = self.model.jnt_qposadr[self.model.body_jntadr[part.body_id]]
-        self.data.qpos[adr : adr + 3] = _offstage_slot(part.id)
-        self.data.qpos[adr + 3 : adr + 7] = [1, 0, 0, 0]
-        self._set_velocity(part, [0, 0, 0])
-        dof = self.model.jnt_dofadr[self.model.body_jntadr[part.body_id]]
-        self.data.qacc_warmstart[dof : dof + 6] = 0
-        self.model.body_gravcomp[part.body_id] = 1.0
+        return self.stage.place_of(self.parts[part_id - 1])
 
     def belt_encoder(self) -> float:
         """The belt's encoder: metres run since the start, in 0.1 mm counts."""
@@ -437,7 +354,7 @@ class World:
         self.data.qpos[adr + 3 : adr + 7] = quat
         self._set_velocity(part, [0, 0, 0])
         self.model.body_gravcomp[part.body_id] = 0.0
-        self._live = np.append(self._live, part.body_id)
+        self.stage.enter(part)
         mujoco.mj_forward(self.model, self.data)
         return part
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from cell.config import escape
 from cell.errors import CellError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "check_output_file"]
+__all__ = ["atomic_write_bytes", "atomic_write_text", "check_output_file", "file_mode"]
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,
@@ -32,7 +32,7 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], 
     except OSError as exc:
         raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
     try:
-        os.chmod(tmp, 0o666 & ~_umask())  # as open() would make it, not mkstemp's 0600
+        os.chmod(tmp, file_mode())  # as open() would make it, not mkstemp's 0600
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
@@ -50,10 +50,12 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], 
     _fsync_dir(folder)
 
 
-def _umask() -> int:
+def file_mode() -> int:
+    """The mode ``open()`` gives a new file here (0o666 less the umask): temporary files
+    are made 0o600, and get this before they are renamed into place."""
     mask = os.umask(0)
     os.umask(mask)
-    return mask
+    return 0o666 & ~mask
 
 
 def atomic_write_text(path: str | Path, text: str, **options) -> None:

@@ -44,6 +44,7 @@ import numpy as np
 import rerun as rr
 
 from cell.errors import JobError
+from cell.files import file_mode
 
 if TYPE_CHECKING:
     from cell.camera import CameraModel
@@ -173,6 +174,7 @@ class Replay:
                 raise OSError("rerun wrote nothing")
             with open(self._tmp, "rb") as f:
                 os.fsync(f.fileno())
+            os.chmod(self._tmp, file_mode())  # as open() would make it, not 0600
             os.replace(self._tmp, self.path)
         except Exception as exc:
             self._finalizer()

@@ -105,3 +105,11 @@ def test_a_calibration_without_the_overhead_camera_is_refused(demo, tmp_path):
     wrist_only.write_text(json.dumps(data))
     r = _cell("run", "scenarios/sort.toml", "--calibration", str(wrist_only))
     assert r.returncode == 2 and "holds no overhead camera" in r.stderr, r.stderr
+
+
+def test_outputs_get_the_usual_file_mode(demo):
+    out, _ = demo
+    mask = os.umask(0)
+    os.umask(mask)
+    for name in ("report.json", "report.calibration.json", "detections.png", "replay.rrd"):
+        assert (out / name).stat().st_mode & 0o777 == 0o666 & ~mask, name

@@ -3,7 +3,7 @@
 set -uo pipefail
 cd "$(dirname "$0")"
 status=0
-for script in render.sh vision.sh pick.sh calib.sh sort.sh; do
+for script in render.sh vision.sh pick.sh calib.sh sort.sh sweep.sh; do
   if [ -f "$script" ]; then
     echo "== $script"
     bash "$script" || status=1

@@ -24,6 +24,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "snapshot": ("cell.jobs.snapshot", "render what a camera sees when a part reaches the pick zone"),
     "detect": ("cell.vision.cli", "run the part detector on an image with its camera.json"),
     "calibrate": ("cell.calib.cli", "calibrate the wrist and overhead cameras from robot poses"),
+    "sweep": ("cell.sweep.cli", "run a parameter sweep (local pool or Ray): results.csv, plots, summary"),
     "bench": ("cell.benchmarks", "benchmarks: render, vision, pick, calib"),
 }
 

@@ -10,13 +10,17 @@ from __future__ import annotations
 
 import os
 import tempfile
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
 from cell.config import escape
 from cell.errors import CellError
 
-__all__ = ["atomic_write_bytes", "atomic_write_text", "check_output_file", "file_mode"]
+__all__ = ["MAX_TOML_BYTES", "atomic_write_bytes", "atomic_write_text", "check_output_file",
+           "file_mode", "read_toml_file"]
+
+MAX_TOML_BYTES = 1 << 20  # a scenario or sweep file is a page of TOML; more is a wrong file
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,
@@ -92,3 +96,31 @@ def check_output_file(arg: str, option: str, *, error: type[CellError] = CellErr
     if not os.access(folder, os.W_OK | os.X_OK):
         raise error(f"{option} {shown}: no write permission in {escape(repr(str(folder)))}")
     return path
+
+
+def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError]) -> dict:
+    """The TOML table in ``path`` (UTF-8, a leading byte-order mark dropped), or ``error``
+    naming ``shown`` (the path as the user wrote it, escaped) and ``kind`` (``scenario
+    file``...) when it is missing, a folder, unreadable, over 1 MiB, not UTF-8 or not TOML."""
+    try:
+        with path.open("rb") as f:
+            data = f.read(MAX_TOML_BYTES + 1)
+    except FileNotFoundError:
+        raise error(f"{shown}: no such {kind}") from None
+    except IsADirectoryError:
+        raise error(f"{shown}: is a directory, not a {kind}") from None
+    except OSError as exc:
+        raise error(f"{shown}: cannot read the {kind}: {escape(exc.strerror or str(exc))}") from None
+    if len(data) > MAX_TOML_BYTES:
+        raise error(f"{shown}: larger than 1 MiB; not a {kind}")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{shown}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+                    f"save the {kind} as UTF-8") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{shown}: not valid TOML: {escape(str(exc))}") from None
+    except RecursionError:
+        raise error(f"{shown}: not valid TOML: arrays or tables nested too deeply") from None

@@ -22,7 +22,6 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +30,7 @@ from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, escape, override_source, setting, show
 from cell.errors import ScenarioError
+from cell.files import read_toml_file
 from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
 from cell.robot.settings import RobotSettings
 from cell.vision.settings import VisionSettings
@@ -45,7 +45,6 @@ __all__ = [
     "scenario_from_dict",
 ]
 
-MAX_SCENARIO_BYTES = 1 << 20  # a scenario is a page of TOML; more is a wrong file
 
 
 @dataclass(frozen=True)
@@ -123,38 +122,6 @@ def scenario_from_dict(
     return scenario
 
 
-def _read_text(path: Path, shown: str) -> str:
-    """The file's text (UTF-8, a leading BOM dropped), or a ``ScenarioError`` naming it."""
-    try:
-        with path.open("rb") as f:
-            data = f.read(MAX_SCENARIO_BYTES + 1)
-    except FileNotFoundError:
-        raise ScenarioError(f"{shown}: no such scenario file") from None
-    except IsADirectoryError:
-        raise ScenarioError(f"{shown}: is a directory, not a scenario file") from None
-    except OSError as exc:
-        reason = escape(exc.strerror or str(exc))
-        raise ScenarioError(f"{shown}: cannot read the scenario file: {reason}") from None
-    if len(data) > MAX_SCENARIO_BYTES:
-        raise ScenarioError(f"{shown}: larger than 1 MiB; not a scenario file")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(
-            f"{shown}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
-            "save the scenario as UTF-8"
-        ) from None
-
-
-def _parse_toml(text: str, shown: str) -> dict[str, Any]:
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{shown}: not valid TOML: {escape(str(exc))}") from None
-    except RecursionError:
-        raise ScenarioError(f"{shown}: not valid TOML: arrays or tables nested too deeply") from None
-
-
 def load_scenario(
     path: str | Path, *, overrides: tuple[str, ...] | list[str] = (), seed: int | None = None
 ) -> Scenario:
@@ -165,7 +132,7 @@ def load_scenario(
     """
     path = Path(path)
     shown = escape(str(path))
-    data = _parse_toml(_read_text(path, shown), shown)
+    data = read_toml_file(path, shown, kind="scenario file", error=ScenarioError)
     scenario = scenario_from_dict(data, where=shown, overrides=overrides)
     if seed is None:
         return scenario

@@ -25,6 +25,7 @@ BENCHMARKS: dict[str, str] = {
     "pick": "cell.benchmarks.pick",
     "calib": "cell.benchmarks.calib",
     "sort": "cell.benchmarks.sort",
+    "sweep": "cell.benchmarks.sweep",
 }
 
 _USAGE = f"usage: cell bench {{{','.join(BENCHMARKS)}}} [options]"

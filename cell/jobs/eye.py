@@ -23,7 +23,7 @@ import numpy as np
 from cell.camera import CameraModel
 from cell.scenario import Scenario
 
-__all__ = ["Capture", "Eye", "is_black"]
+__all__ = ["Capture", "Eye", "is_black", "merge_materials"]
 
 _SAME_PART = 0.006  # m: two captures' detections this close on the table are one part
 _BLACK_MEAN = 6.0  # grey levels: a frame darker than this on average...
@@ -98,14 +98,15 @@ class Eye:
                 continue
             found = [self._timed("detect", self.detector.detect, im, self.camera)
                      for im in images.values()]
-            detections = _merge(found[0], found[1]) if len(found) == 2 else found[0]
+            detections = merge_materials(found[0], found[1]) if len(found) == 2 else found[0]
             return Capture(t, images, detections, seg, retake)
         return None
 
 
-def _merge(outline: list, material: list) -> list:
+def merge_materials(outline: list, material: list) -> list:
     """The detections of the outline image, each with the material of the nearest
-    detection of the material image (``unknown``, confidence 0, if none is near)."""
+    detection of the material image within ``_SAME_PART`` (6 mm) on the table
+    (``unknown``, confidence 0, if none is near). Detections are ``Detection``s."""
     placed = [d for d in material if d.position is not None]
     out = []
     for d in outline:

@@ -1,0 +1,63 @@
+"""The sweep's output folder and its whole-or-absent files.
+
+``--out DIR`` is created when missing. An existing folder may hold only what a sweep
+writes there (``results.csv``, ``summary.md``, ``*.png`` and the temporary files of an
+interrupted write, which are removed); one holding ``results.csv`` is continued only with
+``--resume``. Plots and the summary are written through a temporary name beside the
+target, fsynced and renamed into place (:func:`write_atomic`), so a reader never sees
+half a file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+from cell.config import escape
+from cell.files import atomic_write_bytes
+from cell.sweep.errors import SweepError
+
+__all__ = ["RESULTS", "prepare_out", "write_atomic"]
+
+RESULTS = "results.csv"
+_OUTPUT = re.compile(r"results\.csv|summary\.md|[A-Za-z0-9_.-]+\.png")
+_TEMP = re.compile(r"\.[^/]+\.tmp")
+
+
+def prepare_out(arg: str, *, resume: bool) -> Path:
+    """The output folder ``arg``, checked and created (see the module docstring)."""
+    shown = f"--out {escape(repr(arg))}"
+    if not arg:
+        raise SweepError(f"{shown}: empty path; name the output folder")
+    path = Path(arg)
+    try:
+        if path.exists() and not path.is_dir():
+            raise SweepError(f"{shown}: exists and is not a folder")
+        if path.is_dir():
+            entries = os.listdir(path)
+            foreign = sorted(e for e in entries if not (_OUTPUT.fullmatch(e) or _TEMP.fullmatch(e)))
+            if foreign:
+                listed = ", ".join(escape(repr(e)) for e in foreign[:3])
+                listed += ", ..." if len(foreign) > 3 else ""
+                raise SweepError(f"{shown}: holds entries that are not sweep outputs ({listed}); "
+                                 "name a new folder, or one written only by cell sweep")
+            if RESULTS in entries and not resume:
+                raise SweepError(f"{shown}: holds the results of a sweep; pass --resume to finish "
+                                 "it, or name a new folder")
+            for e in entries:
+                if _TEMP.fullmatch(e):
+                    (path / e).unlink(missing_ok=True)
+        else:
+            path.mkdir(parents=True)
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise SweepError(f"{shown}: cannot be written (no permission)")
+    except OSError as exc:
+        raise SweepError(f"{shown}: cannot be used: {escape(exc.strerror or str(exc))}") from None
+    return path
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file beside it (fsynced, read back,
+    renamed: :func:`cell.files.atomic_write_bytes`); a failure is a ``SweepError``."""
+    atomic_write_bytes(path, data, error=SweepError)

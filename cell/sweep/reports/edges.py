@@ -1,0 +1,61 @@
+"""The edges study's report: Canny's thresholds against closed outlines and clutter.
+
+Plot ``edges.png``: per light (rows), heat maps over the high threshold (columns) and the
+low threshold's share of it (rows of each map) of the share of part outlines that close
+and of the clutter (the share of edge pixels on no true outline), means over the seeds.
+"""
+
+from __future__ import annotations
+
+from cell.catalogue import LIGHTING_PRESETS
+from cell.sweep.reports.plots import heatmap, matrix
+from cell.sweep.reports.table import Plot, Report, done, figure, markdown, number, png, values
+
+__all__ = ["build"]
+
+_CLUTTER = 0.1  # at most this share of clutter counts as clean
+
+
+def build(rows: list[dict], plan) -> Report:
+    rows = [r for r in done(rows) if r.get("job") == "edges"]
+    if not rows:
+        return Report(("No run finished.",), (), ())
+    lights = [p for p in LIGHTING_PRESETS if p in values(rows, "lighting")] or [None]
+    highs, ratios = values(rows, "job.high"), values(rows, "job.low_ratio")
+    fig, axes = figure(len(lights), 2, size=(12.0, 3.6 * len(lights)))
+    heads, body = [], []
+    for i, li in enumerate(lights):
+        mine = [r for r in rows if r.get("lighting") == li]
+        closed = matrix(mine, "outline_closed", ratios, highs, lambda r: r.get("job.low_ratio"),
+                        lambda r: r.get("job.high"))
+        clutter = matrix(mine, "clutter", ratios, highs, lambda r: r.get("job.low_ratio"),
+                         lambda r: r.get("job.high"))
+        heatmap(axes[i, 0], closed, highs, ratios, title=f"{li}: part outlines closed")
+        heatmap(axes[i, 1], clutter, highs, ratios, title=f"{li}: clutter (edge pixels on no outline)",
+                cmap="RdYlGn_r", vmax=0.5)
+        for ax in axes[i]:
+            ax.set_xlabel("Canny high threshold (raw 3x3 Sobel magnitude)")
+            ax.set_ylabel("low / high")
+        cells = [(closed[a][b], clutter[a][b], ratios[a], highs[b]) for a in range(len(ratios))
+                 for b in range(len(highs)) if closed[a][b] is not None]
+        clean = [c for c in cells if c[1] is not None and c[1] <= _CLUTTER]
+        if clean:
+            best = max(clean, key=lambda c: (c[0], -(c[1] or 0)))
+            heads.append(f"{li}: most outlines closed with at most {_CLUTTER:.0%} clutter at high "
+                         f"{best[3]:g}, low {best[2] * best[3]:g} (x{best[2]:g}): {best[0]:.0%} closed, "
+                         f"{best[1]:.0%} clutter")
+        if cells:
+            most = max(cells, key=lambda c: c[0])
+            low_end = min(cells, key=lambda c: c[3] * c[2])
+            high_end = max(cells, key=lambda c: c[3] * c[2])
+            heads.append(f"{li}: too low (high {low_end[3]:g}, low {low_end[2] * low_end[3]:g}): "
+                         f"{number(low_end[1], '.0%')} of the edges are clutter; too high (high "
+                         f"{high_end[3]:g}, low {high_end[2] * high_end[3]:g}): {number(high_end[0], '.0%')} "
+                         f"of the outlines close; the most that close anywhere: {most[0]:.0%}")
+        for a, ratio in enumerate(ratios):
+            body.append([str(li), f"{ratio:g}"] + [f"{number(closed[a][b], '.0%')} / "
+                                                   f"{number(clutter[a][b], '.0%')}"
+                                                   for b in range(len(highs))])
+    table = markdown(["light", "low / high"] + [f"high {h:g}: closed / clutter" for h in highs], body)
+    plot = Plot("edges.png", "closed outlines and clutter over Canny's high and low thresholds", png(fig))
+    return Report(tuple(heads), (plot,), (table,))

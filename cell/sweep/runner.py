@@ -1,0 +1,165 @@
+"""Running a sweep: plan the runs, skip the finished ones, run the rest, write the report.
+
+:func:`run_sweep` reads the sweep file, resolves its runs (:mod:`cell.sweep.plan`), opens
+``results.csv`` in the output folder (reading back the finished runs with ``resume``),
+groups the runs still to do into chunks that share a rendered scene (at most
+``chunk_runs`` runs each), runs them on the chosen backend and appends one row per run
+as each chunk comes back, then regenerates the plots and ``summary.md`` from
+``results.csv``. A ``KeyboardInterrupt`` stops the workers and propagates after the file
+is closed: every finished row is in it, and ``resume`` does only the rest.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from cell.config import escape
+from cell.sweep.errors import SweepError
+from cell.sweep.jobs import job_module
+from cell.sweep.output import RESULTS, prepare_out
+from cell.sweep.plan import Plan, Run, param_value, plan_sweep
+from cell.sweep.progress import Progress
+from cell.sweep.results import open_results
+from cell.sweep.spec import load_sweep
+from cell.sweep.worker import Chunk, Outcome, Task
+
+__all__ = ["BACKENDS", "SweepInterrupted", "SweepOptions", "SweepRun", "make_backend", "make_chunks",
+           "run_plan", "run_sweep"]
+
+BACKENDS = ("local", "ray")
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a sweep: ``done`` of ``total`` runs are in ``path`` (results.csv)."""
+
+    def __init__(self, done: int, total: int, path: Path) -> None:
+        super().__init__(f"{done} of {total} runs done")
+        self.done, self.total, self.path = done, total, path
+
+
+@dataclass(frozen=True)
+class SweepOptions:
+    """How to run a sweep: ``backend`` (``local`` or ``ray``), ``workers`` (None: the
+    machine's CPUs, or the cluster's), Ray's ``address`` (None: a local instance),
+    ``resume`` an existing ``results.csv``, ``progress`` (None: when stderr is a terminal),
+    ``recycle`` (chunks a worker runs before it is replaced), ``chunk_runs`` (runs per
+    chunk at most), ``report`` (write plots and summary.md at the end)."""
+
+    backend: str = "local"
+    workers: int | None = None
+    address: str | None = None
+    resume: bool = False
+    progress: bool | None = None
+    recycle: int = 100
+    chunk_runs: int = 24
+    report: bool = True
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    """What a sweep did: the output folder, the ``total`` runs of the grid, ``resumed``
+    (already in results.csv), ``ran`` now, ``failed`` of those, ``cut_bytes`` of a
+    half-written row dropped on resume, the report's ``files`` and the ``wall_s``."""
+
+    out: Path
+    total: int
+    resumed: int
+    ran: int
+    failed: int
+    cut_bytes: int
+    files: tuple[str, ...]
+    wall_s: float
+
+
+def make_chunks(runs: list[Run], *, chunk_runs: int) -> Iterator[Chunk]:
+    """The runs grouped by (job, scene key), in order of first appearance, at most
+    ``chunk_runs`` per chunk; a job without scenes has one run per chunk."""
+    groups: dict[object, list[Run]] = {}
+    for run in runs:
+        key = job_module(run.job).scene_key(run.scenario, run.settings)
+        groups.setdefault((run.job, key) if key is not None else (run.job, run.run_id), []).append(run)
+    for (job, _), members in groups.items():
+        for i in range(0, len(members), chunk_runs):
+            part = members[i:i + chunk_runs]
+            yield Chunk(job, tuple(Task(r.run_id, r.scenario, r.settings) for r in part))
+
+
+def _row(plan: Plan, run: Run, outcome: Outcome) -> dict:
+    row = {"run_id": run.run_id, "job": run.job, "seed": run.scenario.seed}
+    for key in plan.columns.params:
+        row[key] = param_value(run, key)
+    row.update(outcome.figures)
+    row["error"] = outcome.error
+    return row
+
+
+def make_backend(options: SweepOptions):
+    """The backend ``options`` ask for (not started)."""
+    workers = options.workers
+    if options.backend == "local":
+        from cell.sweep.local import LocalPool
+
+        workers = workers or os.cpu_count() or 1
+        return LocalPool(workers, recycle=options.recycle, render_threads=1)
+    if options.backend == "ray":
+        from cell.sweep.raybackend import RayPool, import_ray
+
+        import_ray()  # fail before any run if Ray is missing
+        if workers is None and options.address is None:
+            workers = os.cpu_count() or 1
+        return RayPool(workers, address=options.address, recycle=options.recycle, render_threads=1)
+    raise SweepError(f"unknown backend {escape(repr(options.backend))}; valid: {', '.join(BACKENDS)}")
+
+
+def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | None = None) -> SweepRun:
+    """Run the runs of ``plan`` not yet in ``out``/results.csv (see the module docstring).
+
+    ``backend``: a started backend to use (left running); default: one made from
+    ``options``, closed at the end."""
+    t0 = time.perf_counter()
+    own = backend is None
+    backend = make_backend(options) if own else backend
+    results, cut = open_results(out / RESULTS, plan.columns.names, {r.run_id for r in plan.runs})
+    todo = [r for r in plan.runs if r.run_id not in results.done]
+    by_id = {r.run_id: r for r in todo}
+    resumed = len(plan.runs) - len(todo)
+    progress = Progress(len(plan.runs), resumed, enabled=options.progress)
+    counts = {"ran": 0, "failed": 0}
+
+    def finished(outcomes: tuple[Outcome, ...]) -> None:
+        for outcome in outcomes:
+            results.append(_row(plan, by_id[outcome.run_id], outcome))
+            counts["ran"] += 1
+            counts["failed"] += outcome.error is not None
+        progress.advance(len(outcomes))
+
+    progress.advance(0)
+    try:
+        if todo:
+            backend.run(make_chunks(todo, chunk_runs=options.chunk_runs), finished)
+    except KeyboardInterrupt:
+        results.close()
+        raise SweepInterrupted(results.count(), len(plan.runs), results.path) from None
+    finally:
+        results.close()
+        progress.close()
+        if own:
+            backend.close()
+    files: tuple[str, ...] = ()
+    if options.report:
+        from cell.sweep.reports import write_report
+
+        files = write_report(plan, out)
+    return SweepRun(out, len(plan.runs), resumed, counts["ran"], counts["failed"], cut, files,
+                    time.perf_counter() - t0)
+
+
+def run_sweep(path: str | Path, *, out: str, options: SweepOptions | None = None) -> SweepRun:
+    """Run the sweep file ``path`` into the folder ``out``."""
+    options = options or SweepOptions()
+    plan = plan_sweep(load_sweep(path))
+    return run_plan(plan, prepare_out(out, resume=options.resume), options)

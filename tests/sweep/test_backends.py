@@ -1,0 +1,116 @@
+"""The backends: the local pool and Ray give the same rows for the same grid; Ctrl-C keeps
+every finished row and --resume does only the rest (a crash's half-written row dropped);
+a killed worker process costs nothing but its chunk, which is run again."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from cell.sweep.plan import plan_sweep
+from cell.sweep.runner import SweepOptions, run_plan
+from cell.sweep.spec import load_sweep
+from tests.sweep.helpers import ROOT, TINY, rows_without_timings, write_tiny
+
+MANY = TINY.replace("seeds = [1, 2]", "seeds = {from = 1, to = 16}")  # 96 runs, 32 scenes
+
+
+def test_the_local_pool_and_ray_give_the_same_rows(tmp_path, monkeypatch):
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")  # (tests only: no token written under ~/.ray)
+    plan = plan_sweep(load_sweep(write_tiny(tmp_path)))
+    local, ray = tmp_path / "local", tmp_path / "ray"
+    for out, backend in ((local, "local"), (ray, "ray")):
+        out.mkdir()
+        result = run_plan(plan, out, SweepOptions(backend=backend, workers=2, progress=False))
+        assert (result.ran, result.failed) == (len(plan.runs), 0), backend
+    a, b = rows_without_timings(local / "results.csv", plan), rows_without_timings(ray / "results.csv", plan)
+    assert len(a) == len(plan.runs) and a == b
+    assert (ray / "summary.md").exists() and (ray / "metrics.png").exists()
+
+
+def _cell(*args: str, **kw) -> subprocess.Popen:
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.Popen([sys.executable, "-m", "cell.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env, **kw)
+
+
+def _rows(path: Path) -> list[str]:
+    if not path.exists():
+        return []
+    return [ln.split(",", 1)[0] for ln in path.read_text().splitlines()[1:]]
+
+
+def _wait_rows(path: Path, n: int, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+    end = time.monotonic() + timeout
+    while len(_rows(path)) < n:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < end, "no rows written"
+        time.sleep(0.05)
+
+
+def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
+    sweep, out = write_tiny(tmp_path, MANY), tmp_path / "out"
+    plan = plan_sweep(load_sweep(sweep))
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2")
+    _wait_rows(out / "results.csv", 2, proc)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    done = _rows(out / "results.csv")
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
+    assert f"{len(done)} of {len(plan.runs)} runs" in stderr and "--resume" in stderr
+    assert 0 < len(done) < len(plan.runs) and len(set(done)) == len(done)
+    with open(out / "results.csv", "ab") as f:  # as if the machine died mid-row
+        f.write(b"0123456789abcdef,detect,3,fr")
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", "--resume")
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stderr
+    assert f"{len(done)} resumed, {len(plan.runs) - len(done)} run now" in stdout
+    assert "half-written" in stdout
+    final = _rows(out / "results.csv")
+    assert sorted(final) == sorted(r.run_id for r in plan.runs)
+    assert final[: len(done)] == done  # the finished rows were kept as they were
+
+
+def _children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (from /proc: each process's parent id)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _worker_pids(pid: int) -> list[int]:
+    out = []
+    for child in _children(pid):
+        try:
+            cmd = Path(f"/proc/{child}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
+            out.append(child)
+    return out
+
+
+def test_a_killed_worker_loses_nothing(tmp_path):
+    sweep, out = write_tiny(tmp_path, MANY), tmp_path / "out"
+    plan = plan_sweep(load_sweep(sweep))
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2")
+    _wait_rows(out / "results.csv", 2, proc)
+    workers = _worker_pids(proc.pid)
+    assert workers, "no worker process found"
+    os.kill(workers[0], signal.SIGKILL)
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stderr
+    assert "a worker process died" in stderr and "Traceback" not in stderr, (stdout, stderr)
+    rows = _rows(out / "results.csv")
+    assert sorted(rows) == sorted(r.run_id for r in plan.runs)

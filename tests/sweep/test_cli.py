@@ -1,0 +1,83 @@
+"""``cell sweep`` and ``cell bench sweep`` on the command line: bad input is one error line
+and exit status 2, never a traceback; the bench's JSON is strict."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from tests.sweep.helpers import ROOT, write_tiny
+
+
+def _cell(*args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.run([sys.executable, "-m", "cell.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, env=env, timeout=300)
+
+
+def _one_error(r: subprocess.CompletedProcess, *words: str) -> str:
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    errors = [ln for ln in r.stderr.splitlines() if "error:" in ln]
+    assert len(errors) == 1, r.stderr
+    for w in words:
+        assert w in errors[0], (w, errors[0])
+    return errors[0]
+
+
+def test_bad_options_are_one_error_line(tmp_path):
+    sweep = write_tiny(tmp_path)
+    _one_error(_cell("sweep"), "--out")
+    _one_error(_cell("sweep", str(sweep), "--out", str(tmp_path / "o"), "--workers", "0"), "--workers",
+               "1 to 1024")
+    _one_error(_cell("sweep", str(sweep), "--out", str(tmp_path / "o"), "--backend", "spark"), "--backend")
+    _one_error(_cell("sweep", str(sweep), "--out", str(tmp_path / "o"), "--address", "x:1"),
+               "--address", "only with --backend ray")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ('[grid]\n"vision.threshold" = [100, 999]\n', ("vision.threshold", "out of range", "case 1")),
+    ('[grid]\nlighting = ["front", "disco\\u001b[2J"]\n', ("lighting", "disco\\x1b[2J")),
+    ('[sweep]\njob = "fly"\n', ("unknown job 'fly'",)),
+])
+def test_a_bad_sweep_file_is_one_error_naming_the_key_and_the_file(tmp_path, text, words):
+    sweep = write_tiny(tmp_path, text, "bad.toml")
+    line = _one_error(_cell("sweep", str(sweep), "--out", str(tmp_path / "o")), "bad.toml", *words)
+    assert "\x1b" not in line
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_missing_files_and_used_folders_are_one_error(tmp_path):
+    _one_error(_cell("sweep", str(tmp_path / "none.toml"), "--out", str(tmp_path / "o")),
+               "no such sweep file")
+    _one_error(_cell("sweep", str(tmp_path), "--out", str(tmp_path / "o")), "is a directory")
+    sweep = write_tiny(tmp_path)
+    used = tmp_path / "used"
+    used.mkdir()
+    (used / "results.csv").write_text("run_id\n")
+    _one_error(_cell("sweep", str(sweep), "--out", str(used)), "pass --resume")
+    _one_error(_cell("sweep", str(sweep), "--out", str(used), "--resume"), "not this sweep's")
+    (used / "notes.txt").write_text("mine")
+    _one_error(_cell("sweep", str(sweep), "--out", str(used), "--resume"), "not sweep outputs")
+
+
+def test_bench_sweep_reports_strict_json():
+    from cell.benchmarks import sweep
+
+    report = sweep.run(seeds=1, repeats=1, ray=False)
+
+    def reject(name: str):
+        raise AssertionError(f"{name} in the JSON")
+
+    out = json.loads(json.dumps(report, allow_nan=False), parse_constant=reject)
+    assert out["grid"]["runs"] == 16 and out["same_rows"] is True
+    assert set(out["setups"]) == {"local_1", "local_2"}
+    for setup in out["setups"].values():
+        assert setup["runs_per_min"] > 0 and setup["startup_s"] > 0
+    assert out["ratios"]["local_2_over_local_1"] > 0 and out["ratios"]["ray_over_local_2"] is None
+    _one_error(_cell("bench", "sweep", "--seeds", "0"), "--seeds")

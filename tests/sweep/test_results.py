@@ -1,0 +1,98 @@
+"""results.csv and the output folder: rows written whole and durably, read back for
+--resume (a half-written last row dropped, a foreign or damaged file refused), values
+round-trip, and the output folder's rules."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from cell.sweep.errors import SweepError
+from cell.sweep.output import prepare_out, write_atomic
+from cell.sweep.results import format_value, open_results, parse_value, read_rows
+
+COLUMNS = ("run_id", "job", "seed", "lighting", "recall", "error")
+KNOWN = {"a" * 16, "b" * 16, "c" * 16}
+
+
+def _row(rid: str, **kw) -> dict:
+    return {"run_id": rid, "job": "detect", "seed": 1, "lighting": "front", "recall": 0.5, **kw}
+
+
+def test_values_round_trip_and_nan_is_refused():
+    for value in (None, True, False, 3, -7, 0.1, 1e-300, "front", "a, b", (1.0, 2.5), ("back", "front")):
+        assert parse_value(format_value(value)) == value, value
+    with pytest.raises(ValueError):
+        format_value(math.nan)
+    assert parse_value("nan") is None and parse_value("inf") is None
+
+
+def test_rows_are_appended_and_read_back(tmp_path):
+    path = tmp_path / "results.csv"
+    results, cut = open_results(path, COLUMNS, KNOWN)
+    assert cut == 0 and results.done == set()
+    results.append(_row("a" * 16))
+    results.append(_row("b" * 16, recall=None, error="a run failed, politely"))
+    results.close()
+    header, rows = read_rows(path)
+    assert header == COLUMNS and [r["run_id"] for r in rows] == ["a" * 16, "b" * 16]
+    assert rows[1]["recall"] is None and rows[1]["error"] == "a run failed, politely"
+    again, cut = open_results(path, COLUMNS, KNOWN)
+    assert again.done == {"a" * 16, "b" * 16} and cut == 0
+    again.close()
+
+
+def test_a_half_written_last_row_is_cut_off_on_resume(tmp_path):
+    path = tmp_path / "results.csv"
+    results, _ = open_results(path, COLUMNS, KNOWN)
+    results.append(_row("a" * 16))
+    results.close()
+    whole = path.read_bytes()
+    path.write_bytes(whole + b"bbbbbbbbbbbbbbbb,detect,1,fr")  # the crash came mid-row
+    results, cut = open_results(path, COLUMNS, KNOWN)
+    assert cut == len(b"bbbbbbbbbbbbbbbb,detect,1,fr") and results.done == {"a" * 16}
+    results.append(_row("b" * 16))
+    results.close()
+    assert path.read_bytes().count(b"\n") == 3 and read_rows(path)[1][1]["run_id"] == "b" * 16
+
+
+@pytest.mark.parametrize(("content", "words"), [
+    (b"run_id,job\n", "not this sweep's"),
+    (",".join(COLUMNS).encode() + b"\n" + b"z" * 16 + b",detect,1,front,0.5,\n", "not a run of this sweep"),
+    (",".join(COLUMNS).encode() + b"\n" + b"a" * 16 + b",detect,1,front,0.5,\n" + b"a" * 16
+     + b",detect,1,front,0.5,\n", "repeats run"),
+    (",".join(COLUMNS).encode() + b"\n" + b"a" * 16 + b",detect\n", "fields"),
+    (b"\xff\xfe\x00\x01\n", "not UTF-8"),
+])
+def test_a_foreign_or_damaged_results_file_is_refused(tmp_path, content, words):
+    path = tmp_path / "results.csv"
+    path.write_bytes(content)
+    with pytest.raises(SweepError, match=words) as info:
+        open_results(path, COLUMNS, KNOWN)
+    assert str(path) in str(info.value)
+
+
+def test_the_output_folder_rules(tmp_path):
+    out = tmp_path / "new" / "deeper"
+    assert prepare_out(str(out), resume=False) == out and out.is_dir()
+    (out / "results.csv").write_text("x\n")
+    (out / ".summary.md.1234.tmp").write_text("half")
+    with pytest.raises(SweepError, match="pass --resume"):
+        prepare_out(str(out), resume=False)
+    prepare_out(str(out), resume=True)
+    assert not (out / ".summary.md.1234.tmp").exists()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(SweepError, match="not sweep outputs .'notes.txt'"):
+        prepare_out(str(out), resume=True)
+    with pytest.raises(SweepError, match="not a folder"):
+        prepare_out(str(out / "notes.txt"), resume=False)
+    with pytest.raises(SweepError, match="empty path"):
+        prepare_out("", resume=False)
+
+
+def test_atomic_writes_leave_no_temporary_file(tmp_path):
+    write_atomic(tmp_path / "a.png", b"\x89PNG")
+    write_atomic(tmp_path / "a.png", b"\x89PNG again")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
+    assert (tmp_path / "a.png").read_bytes() == b"\x89PNG again"

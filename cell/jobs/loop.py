@@ -2,9 +2,10 @@
 
 :func:`cell.jobs.sort.run_sort` builds a ``SortLoop`` and runs one of its two modes:
 
-- ``run_index``: the belt runs until a part breaks the light barrier and stops; the arm
-  picks every part it can from the pick window (looking again after each pick, and
-  once more while unsure), then lets go of whatever still blocks the barrier;
+- ``run_index``: the belt runs until a part breaks the light barrier and stops; while it
+  stands still (its encoder does not count) the arm picks every part it can from the
+  pick window (looking again after each pick, and once more while unsure), then lets go
+  of whatever still blocks the barrier;
 - ``run_continuous``: the belt never stops; the arm meets each part where the belt's
   encoder says it will be when the cup gets there.
 
@@ -35,6 +36,7 @@ _LEAD = 1.0  # s: about how long from an image to the cup reaching a part (conti
 _IDLE = 0.1  # s: the wait before looking again when nothing can be picked (continuous mode)
 _EMPTY_SPOT = 0.008  # m: a detection this near a placed part's spot means it is still there
 _STATE_EVERY = 0.04  # s: the replay's 3D states, 25 per simulated second
+_STILL_CHECK = 0.02  # s: index mode watches the encoder this long before it picks
 
 
 class SortLoop:
@@ -195,15 +197,23 @@ class SortLoop:
                 break
         return cap, todo
 
+    def _belt_moving(self) -> bool:
+        """Whether the belt's encoder counts over ``_STILL_CHECK`` seconds."""
+        before = self.world.belt_encoder()
+        self._wait(_STILL_CHECK)
+        return self.world.belt_encoder() != before
+
     def run_index(self) -> None:
         while self._wait_for_part():
             for _ in range(4 * self.scenario.parts.count):
+                if self._belt_moving():  # the barrier cleared during the last pick: the next
+                    break  # part is on its way; it is picked when the belt has stopped
                 cap, todo = self._look_for_parts()
                 if not todo:
                     break
                 self._pick(todo[0], cap)
-            if self.world.barrier_blocked:  # what is left at the barrier cannot be picked
-                self._let_go += 1
+            if self.world.barrier_blocked and not self._belt_moving():  # left at the barrier:
+                self._let_go += 1  # it cannot be picked
                 self._event("a part at the barrier is let go", "warning")
                 self.world.conveyor.release_part()
 

@@ -107,3 +107,11 @@ def test_a_belt_that_never_moves_ends_the_job(calibration):
                   "sort.arrival_timeout=5")
     _check_accounting(report, 1)  # the feeder put out one part; it never reached the arm
     assert report["metrics"]["sim_time_s"] < 10 and report["parts"][0]["outcome"] == "missed"
+
+
+def test_index_mode_picks_only_while_the_belt_stands(calibration):
+    # parts far apart: when a pick clears the barrier the belt runs on, and the next part
+    # seen in the window is still moving; it must be picked only once the belt has stopped
+    report = _run("sort", calibration, "parts.count=3", "parts.spacing=0.3")
+    _check_accounting(report, 3)
+    assert [p["result"] for p in report["picks"]] == ["placed"] * 3

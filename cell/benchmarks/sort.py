@@ -2,17 +2,20 @@
 
 The overhead camera is calibrated once (seed ``SEED_BASE``), as ``cell run`` would, and
 the calibration shared. Then each scenario of ``SCENARIOS`` runs with ``--parts`` parts
-(default 20) on seed ``SEED_BASE + k`` (the tests use seeds below 1000), without a replay
-and again with one (written to a temporary folder). Reported per scenario: the report's
-metrics and accounting, whether every part is accounted for (spawned = binned + rejected
-+ missed + dropped), the real-time factor without and with a replay, and where the wall
-time of the run without a replay went (physics, render, detection, IK, replay, other),
-as fractions. ``pooled`` gives sort accuracy and pick success over the fault-free
-scenarios together. ``required`` holds the issue's must-reach bars and ``meets_required``
-whether they hold: accuracy and pick success pooled (a 20-part run alone moves in steps
-of 5 points), the rest per scenario (the faults scenario is held only to its accounting
-and speed: its faults cost parts by design). Ground truth is read only to score. A
-figure with no samples is ``None`` (``null`` in JSON, ``-`` in the table); never NaN.
+(default 20) on seed ``SEED_BASE + 1 + k``, k its place in ``SCENARIOS`` (the tests use
+seeds below 1000), without a replay and again with one (written to a temporary folder).
+Reported per scenario: the report's metrics and accounting, whether every part is
+accounted for (spawned = binned + rejected + missed + dropped), the real-time factor
+without and with a replay, and where the wall time of the run without a replay went, as
+fractions: setup (the cell's model, the robot's models, the detector), physics, render,
+detection, IK, replay, and other (the motion planner's collision checks, the servo loop's
+Python, the job's bookkeeping).
+``pooled`` gives sort accuracy and pick success over the fault-free scenarios together.
+``required`` holds the issue's must-reach bars and ``meets_required`` whether they hold:
+accuracy and pick success pooled (a 20-part run alone moves in steps of 5 points), the
+rest per scenario (the faults scenario is held only to its accounting and speed: its
+faults cost parts by design). Ground truth is read only to score. A figure with no
+samples is ``None`` (``null`` in JSON, ``-`` in the table); never NaN.
 """
 
 from __future__ import annotations

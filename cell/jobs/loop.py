@@ -50,12 +50,16 @@ class SortLoop:
         from cell.robot.pick import PickPlace
         from cell.sim import World
 
+        t_setup = time.perf_counter()
         self.scenario, self.settings = scenario, scenario.sort
-        self.timers = {"physics": 0.0, "render": 0.0, "detect": 0.0, "replay": 0.0}
+        self.timers = {"setup": 0.0, "physics": 0.0, "render": 0.0, "detect": 0.0, "replay": 0.0}
         detector = load_detector(scenario.vision)  # (a bad name fails before the cell is built)
         self.world = World.build(scenario)
-        self.replay = replay(self.world) if replay else None
+        t0 = time.perf_counter()
+        self.replay = replay(self.world) if replay else None  # (logs the cell's geometry)
+        self.timers["replay"] += time.perf_counter() - t0
         self.skill = PickPlace(self.world.model, self.world.data, self._step, scenario.robot)
+        self.timers["setup"] = time.perf_counter() - t_setup - self.timers["replay"]
         self.eye = Eye(self.world, camera, detector, scenario,
                        truth=self.replay is not None, timers=self.timers)
         self.keeper = Scorekeeper(self.world)

@@ -21,7 +21,8 @@ def test_sort_bench_quick_json_has_the_figures():
     for row in out["scenarios"].values():
         assert row["accounted"] and row["accounting"]["spawned"] == 3
         assert row["real_time_factor_replay"] > 0 and row["metrics"]["real_time_factor"] > 0
-        assert set(row["wall_time_fractions"]) == {"physics", "render", "detect", "ik", "replay", "other"}
+        assert set(row["wall_time_fractions"]) == {"setup", "physics", "render", "detect", "ik",
+                                                   "replay", "other"}
         assert abs(sum(row["wall_time_fractions"].values()) - 1.0) < 0.05
     assert out["pooled"]["scenarios"] == ["sort"] and out["pooled"]["parts"] == 3
     assert isinstance(out["meets_required"], bool)

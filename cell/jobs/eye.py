@@ -102,6 +102,21 @@ class Eye:
             return Capture(t, images, detections, seg, retake)
         return None
 
+    def second_opinion(self, det: object, preset: str) -> object | None:
+        """``det`` with the material seen under lighting ``preset`` (one more image, the
+        outline's preset restored for the next look); None when that image is black or
+        shows no part within ``_SAME_PART`` of ``det``."""
+        self.world.set_lighting(preset)
+        try:
+            image = self._timed("render", self.world.render, "overhead", depth=False, seg=False).rgb
+        finally:
+            self.world.set_lighting(self.presets[0])
+        if is_black(image):
+            return None
+        found = self._timed("detect", self.detector.detect, image, self.camera)
+        merged = merge_materials([det], found)[0]
+        return merged if merged.material != "unknown" else None
+
 
 def merge_materials(outline: list, material: list) -> list:
     """The detections of the outline image, each with the material of the nearest

@@ -134,11 +134,12 @@ class SortLoop:
                 if not self.attempts.given_up(d.position, enc)]
 
     # --- acting -----------------------------------------------------------------------
-    def _pick(self, det: object, cap: Capture, *, vx: float = 0.0) -> None:
+    def _pick(self, det: object, cap: Capture, *, vx: float = 0.0, second_look: str = "") -> None:
         from cell.robot.pick import PartTarget
 
         record = PickRecord(len(self.records) + 1, cap.t, det.to_dict(),
-                            choose_bin(det, self.settings), encoder=self.world.belt_encoder())
+                            choose_bin(det, self.settings), encoder=self.world.belt_encoder(),
+                            second_look=second_look)
         self.records.append(record)
         self.keeper.attach(record, det)  # scoring only: the job never reads what it matched
         target = PartTarget(grasp_kind(det), det.position[0], det.position[1], det.yaw,
@@ -189,17 +190,42 @@ class SortLoop:
         self._wait(0.3)
         return True
 
-    def _look_for_parts(self) -> tuple[Capture | None, list]:
-        """Index mode: a look and its pick candidates; looked again (``sort.relooks``
-        times, the sensor's noise differs each time) while a part blocks the barrier but
-        none is found, or while the first candidate would be rejected as unsure."""
+    def _look_for_parts(self) -> tuple[Capture | None, list, str]:
+        """Index mode: a look, its pick candidates and the preset of a second look (or "");
+        looked again (``sort.relooks`` times, the sensor's noise differs each time) while a
+        part blocks the barrier but none is found, or while the first candidate would be
+        rejected as unsure; a candidate still unsure only of its material then gets one
+        look under ``sort.second_preset``."""
         for _ in range(self.settings.relooks + 1):
             cap = self._look()
             todo = self._candidates(cap, 0.0) if cap is not None else []
             unsure = bool(todo) and choose_bin(todo[0], self.settings) == "reject"
             if cap is None or not (unsure or (not todo and self.world.barrier_blocked)):
                 break
-        return cap, todo
+        second = ""
+        if todo and unsure and self._material_unsure(todo[0]):
+            todo[0], second = self._second_opinion(todo[0])
+        return cap, todo, second
+
+    def _material_unsure(self, det: object) -> bool:
+        """Whether only the material keeps ``det`` from its bin (its kind is sure), and a
+        second preset is set that the captures did not use."""
+        s = self.settings
+        return (bool(s.second_preset) and s.second_preset not in self.eye.presets
+                and not det.partial and det.kind_confidence >= s.min_kind_confidence
+                and choose_bin(det, s) == "reject")
+
+    def _second_opinion(self, det: object) -> tuple[object, str]:
+        """(``det`` with its material as seen under ``sort.second_preset``, that preset) when
+        that look is sure of it; else (``det`` as it was, "")."""
+        preset = self.settings.second_preset
+        other = self.eye.second_opinion(det, preset)
+        if other is None or other.material_confidence < self.settings.min_material_confidence:
+            self._event(f"{det.kind}: material still unsure under {preset}")
+            return det, ""
+        self._event(f"{det.kind}: {det.material} at {det.material_confidence:.2f}, under "
+                    f"{preset} {other.material} at {other.material_confidence:.2f}")
+        return other, preset
 
     def _belt_moving(self) -> bool:
         """Whether the belt's encoder counts over ``_STILL_CHECK`` seconds."""
@@ -212,10 +238,10 @@ class SortLoop:
             for _ in range(4 * self.scenario.parts.count):
                 if self._belt_moving():  # the barrier cleared during the last pick: the next
                     break  # part is on its way; it is picked when the belt has stopped
-                cap, todo = self._look_for_parts()
+                cap, todo, second = self._look_for_parts()
                 if not todo:
                     break
-                self._pick(todo[0], cap)
+                self._pick(todo[0], cap, second_look=second)
             if self.world.barrier_blocked and not self._belt_moving():  # left at the barrier:
                 self._let_go += 1  # it cannot be picked
                 self._event("a part at the barrier is let go", "warning")

@@ -34,7 +34,8 @@ class PickRecord:
     """One pick as the job saw it: when the image was taken (``t``, s), the detection it
     acted on (a JSON-ready dict), the bin it chose, what happened (``placed``,
     ``grasp_failed``, ``lost``, ``unreachable``, ``blocked``), the cycle time (s) of a
-    placed one, and whether the second look found the spot empty (``verified``)."""
+    placed one, whether the next look found the spot empty (``verified``), and the
+    lighting preset of a second look that decided the material (``second_look``)."""
 
     index: int
     t: float
@@ -45,6 +46,7 @@ class PickRecord:
     verified: bool | None = None
     message: str = ""
     encoder: float = 0.0  # m: the belt's encoder when the image was taken
+    second_look: str = ""  # the preset whose look decided the material, if one did
 
 
 @dataclass

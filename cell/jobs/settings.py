@@ -56,6 +56,11 @@ class SortSettings:
         2, lo=0, hi=10,
         doc="index mode: further looks when a part blocks the barrier but none is found, or "
         "the part to pick would be rejected as unsure (each image has its own sensor noise)")
+    second_preset: str = setting(
+        "coaxial", choices=("", *LIGHTING_PRESETS),
+        doc="index mode: when only its material keeps a part from its bin (still unsure after "
+        "the relooks), one more look under this preset decides it if that look is sure "
+        "('' = none; skipped when the captures already use it)")
     retakes: int = setting(
         20, lo=1, hi=1000, doc="captures retaken while the camera delivers unusable frames")
     retake_wait: float = setting(

@@ -11,8 +11,7 @@ reading the scenario's ``[calibration]`` section does not import OpenCV or scipy
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cell.lazy import lazy_names
 
 _WHERE = {
     "CalibrationSettings": "settings",
@@ -61,12 +60,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str) -> Any:
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.calib' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"cell.calib.{_WHERE[name]}"), name)
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

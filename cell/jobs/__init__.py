@@ -6,7 +6,7 @@ must not import the simulator, the robot or the detector.
 
 from __future__ import annotations
 
-import importlib
+from cell.lazy import lazy_names
 
 _WHERE = {
     "CaptureSettings": "settings",
@@ -29,14 +29,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.jobs' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"cell.jobs.{_WHERE[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

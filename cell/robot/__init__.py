@@ -6,8 +6,7 @@ Names load lazily (``from cell.robot import PickPlace``), so that reading the se
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from cell.lazy import lazy_names
 
 __all__ = [
     "GRASP_POINTS",
@@ -35,8 +34,4 @@ _WHERE = {
     "SuctionCup": "suction",
 }
 
-
-def __getattr__(name: str) -> Any:
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.robot' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"cell.robot.{_WHERE[name]}"), name)
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

@@ -10,7 +10,7 @@ study's plots and writes ``summary.md``. The jobs a run can do are in
 
 from __future__ import annotations
 
-import importlib
+from cell.lazy import lazy_names
 
 _WHERE = {
     "Axis": "grid",
@@ -46,14 +46,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.sweep' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"cell.sweep.{_WHERE[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

@@ -8,7 +8,7 @@ Names load lazily, on first use, so that loading a scenario (which reads
 
 from __future__ import annotations
 
-import importlib
+from cell.lazy import lazy_names
 
 _WHERE = {
     # the part detector and its settings
@@ -95,15 +95,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.vision' has no attribute {name!r}")
-    module, _, attr = _WHERE[name].partition(":")  # ("module:attr" where the names differ)
-    value = getattr(importlib.import_module(f"cell.vision.{module}"), attr or name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

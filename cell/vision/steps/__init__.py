@@ -14,7 +14,7 @@ Each step is plain numpy and OpenCV; data passes between them as frozen dataclas
 
 from __future__ import annotations
 
-import importlib
+from cell.lazy import lazy_names
 
 _WHERE = {
     "Foreground": "foreground", "find_foreground": "foreground",
@@ -28,8 +28,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name: str):
-    if name not in _WHERE:
-        raise AttributeError(f"module 'cell.vision.steps' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"cell.vision.steps.{_WHERE[name]}"), name)
+__getattr__, __dir__ = lazy_names(__name__, _WHERE, globals())

@@ -1,0 +1,28 @@
+"""cell.lazy: packages whose names load on first use."""
+
+from __future__ import annotations
+
+import importlib
+import subprocess
+import sys
+
+import pytest
+
+PACKAGES = ("cell.calib", "cell.jobs", "cell.robot", "cell.sweep", "cell.vision", "cell.vision.steps")
+
+
+@pytest.mark.parametrize("name", PACKAGES)
+def test_every_name_resolves_and_dir_lists_them(name):
+    package = importlib.import_module(name)
+    assert all(getattr(package, n) is not None for n in package.__all__)
+    assert sorted(dir(package)) == sorted(package.__all__)
+    with pytest.raises(AttributeError, match=f"module '{name}' has no attribute 'no_such_name'"):
+        package.no_such_name  # noqa: B018
+
+
+def test_importing_a_package_imports_none_of_its_modules():
+    code = ("import sys, cell.vision, cell.robot, cell.calib, cell.jobs, cell.sweep; "
+            "print(sorted(m for m in ('cell.vision.detector', 'cell.robot.pick', 'cell.calib.job', "
+            "'cell.jobs.sort', 'cell.sweep.runner', 'mujoco', 'cv2') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -33,7 +33,8 @@ __all__ = ["Progress", "SortLoop"]
 
 Progress = Callable[[int, int, str], None]
 _LEAD = 1.0  # s: about how long from an image to the cup reaching a part (continuous mode)
-_IDLE = 0.1  # s: the wait before looking again when nothing can be picked (continuous mode)
+_IDLE_TRAVEL = 0.02  # m: continuous mode, nothing in reach: look again after this much belt
+_IDLE_WAIT = (0.05, 0.5)  # s: ... but no sooner and no later than these
 _EMPTY_SPOT = 0.008  # m: a detection this near a placed part's spot means it is still there
 _STATE_EVERY = 0.04  # s: the replay's 3D states, 25 per simulated second
 _STILL_CHECK = 0.02  # s: index mode watches the encoder this long before it picks
@@ -272,4 +273,5 @@ class SortLoop:
             if todo:
                 self._pick(todo[0], cap, vx=v)
             else:
-                self._wait(_IDLE)
+                lo, hi = _IDLE_WAIT  # look again once the belt has brought 2 cm more into view
+                self._wait(min(hi, max(lo, _IDLE_TRAVEL / max(v, 1e-6))))

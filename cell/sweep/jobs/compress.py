@@ -28,6 +28,7 @@ import numpy as np
 from cell.config import setting
 from cell.scenario import Scenario
 from cell.sweep.errors import SweepError
+from cell.sweep.jobs.detect import prepare, scene_key  # the detect job's scene (its gap_mm)
 
 __all__ = ["CHROMA", "CODECS", "METRICS", "TIMINGS", "Settings", "decode", "encode", "measure", "prepare",
            "scene_key"]
@@ -52,18 +53,6 @@ class Settings:
                           "OpenCV's default) or 444 (full resolution)")
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
-
-
-def scene_key(scenario: Scenario, settings: Settings) -> tuple:
-    from cell.sweep.jobs import detect
-
-    return detect.scene_key(scenario, detect.Settings(gap_mm=settings.gap_mm))
-
-
-def prepare(scenario: Scenario, settings: Settings) -> object:
-    from cell.sweep.jobs import detect
-
-    return detect.prepare(scenario, detect.Settings(gap_mm=settings.gap_mm))
 
 
 def encode(image: np.ndarray, settings: Settings) -> bytes:

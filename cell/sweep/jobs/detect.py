@@ -43,6 +43,8 @@ class Settings:
 
 
 def scene_key(scenario: Scenario, settings: Settings) -> tuple:
+    """What the run renders: the scene's scenario and ``settings.gap_mm`` (the compress,
+    smooth and edges jobs share this scene and read only their own ``gap_mm``)."""
     from cell.sweep.scene import scene_scenario
 
     return (scene_scenario(scenario), settings.gap_mm)

@@ -20,6 +20,7 @@ import numpy as np
 
 from cell.config import setting
 from cell.scenario import Scenario
+from cell.sweep.jobs.detect import prepare, scene_key  # the detect job's scene (its gap_mm)
 
 __all__ = ["FILTERS", "METRICS", "TIMINGS", "Settings", "measure", "prepare", "scene_key", "smooth"]
 
@@ -45,18 +46,6 @@ class Settings:
 
         if self.ksize % 2 == 0:
             raise ScenarioError(f"{where}: key 'job.ksize' must be odd, got {self.ksize}")
-
-
-def scene_key(scenario: Scenario, settings: Settings) -> tuple:
-    from cell.sweep.jobs import detect
-
-    return detect.scene_key(scenario, detect.Settings(gap_mm=settings.gap_mm))
-
-
-def prepare(scenario: Scenario, settings: Settings) -> object:
-    from cell.sweep.jobs import detect
-
-    return detect.prepare(scenario, detect.Settings(gap_mm=settings.gap_mm))
 
 
 def smooth(image: np.ndarray, settings: Settings) -> np.ndarray:

@@ -88,11 +88,11 @@ def describe(outline: np.ndarray, holes: tuple[np.ndarray, ...] = ()) -> Footpri
         cx, cy = (sx - hx) / net, (sy - hy) / net
     else:
         cx, cy = (sx / a_out, sy / a_out) if a_out > 1e-9 else outer.mean(axis=0).tolist()
-    (_, _), (w, h), angle = cv2.minAreaRect(outer)
+    hull = cv2.convexHull(outer).reshape(-1, 2)
+    (_, _), (w, h), angle = cv2.minAreaRect(hull)  # (the rectangle of the hull is the outline's)
     angle = math.radians(angle)
     if w < h:
         w, h, angle = h, w, angle + math.pi / 2
-    hull = cv2.convexHull(outer).reshape(-1, 2)
     hull_area = cv2.contourArea(hull)
     return Footprint(
         outline=outline, holes=tuple(holes), area=max(net, 0.0) * 1e-6,

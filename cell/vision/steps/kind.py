@@ -70,6 +70,10 @@ def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
 
 KIND_NAMES = tuple(KINDS)
 _NOMINAL = np.array([nominal_descriptors(k) for k in KINDS.values()])  # (kinds, 4)
+# the facet term per kind: its nominal strength, and the side that counts (-1: only a
+# weaker one, the hex nut; +1: only a stronger one; 0: no term)
+_FACETS_NOMINAL = np.array([_FACETS6.get(n, 0.0) for n in KINDS])
+_FACETS_SIDE = np.array([-1.0 if n == "hex_nut" else float(n in _FACETS6) for n in KINDS])
 _SIGMAS = np.array([[_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE if n[2] > 0 else _SIGMA_NO_HOLE,
                      _SIGMA_SOLIDITY] for n in _NOMINAL])
 
@@ -77,13 +81,8 @@ _SIGMAS = np.array([[_SIGMA_SIZE, _SIGMA_SIZE, _SIGMA_HOLE if n[2] > 0 else _SIG
 def _z2(fp: Footprint) -> np.ndarray:
     """(kinds, 5) squared z-scores: length, width, hole fraction, solidity, facets."""
     d = np.array([fp.length, fp.width, fp.hole_fraction, fp.solidity])
-    z2 = np.zeros((len(KIND_NAMES), 5))
-    z2[:, :4] = ((d - _NOMINAL) / _SIGMAS) ** 2
-    for k, name in enumerate(KIND_NAMES):
-        if name in _FACETS6:
-            off = fp.facets6 - _FACETS6[name]
-            z2[k, 4] = (min(off, 0.0) if name == "hex_nut" else max(off, 0.0)) ** 2 / _SIGMA_FACETS**2
-    return z2
+    facets = np.maximum(_FACETS_SIDE * (fp.facets6 - _FACETS_NOMINAL), 0.0)  # (kinds,)
+    return np.column_stack([((d - _NOMINAL) / _SIGMAS) ** 2, (facets / _SIGMA_FACETS) ** 2])
 
 
 def score_kinds(fp: Footprint) -> np.ndarray:

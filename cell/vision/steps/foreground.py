@@ -48,7 +48,8 @@ _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outli
 class BeltModel:
     """The empty belt under this frame's light at 1/8 scale, uint8 RGB each: ``median``,
     and per channel the ``low`` and ``high`` ends of the medians within 16 px (where the
-    belt meets the table, both). :meth:`at` gives them at any scale."""
+    belt meets the table, both). :meth:`at` gives them at any scale, :meth:`median_in`
+    the median in a window."""
 
     median: np.ndarray
     low: np.ndarray
@@ -59,17 +60,16 @@ class BeltModel:
         return BeltModel(*(cv2.resize(m, size, interpolation=cv2.INTER_LINEAR)
                            for m in (self.median, self.low, self.high)))
 
-    def window(self, x0: int, y0: int, x1: int, y1: int) -> BeltModel:
-        """The model at full scale in the window [y0:y1, x0:x1]: what resizing it whole
-        gives there, from the few small pixels around the window only."""
+    def median_in(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        """The median at full scale in the window [y0:y1, x0:x1] (uint8 RGB): what resizing
+        it whole gives there, from the few small pixels around the window only."""
         s = _SCALE
         hs, ws = self.median.shape[:2]
         i0, j0 = max(y0 // s - 1, 0), max(x0 // s - 1, 0)
         i1, j1 = min(-(-y1 // s) + 1, hs), min(-(-x1 // s) + 1, ws)
-        block = BeltModel(*(m[i0:i1, j0:j1] for m in (self.median, self.low, self.high)))
-        up = block.at(((j1 - j0) * s, (i1 - i0) * s))
-        return BeltModel(*(m[y0 - i0 * s:y1 - i0 * s, x0 - j0 * s:x1 - j0 * s]
-                           for m in (up.median, up.low, up.high)))
+        up = cv2.resize(self.median[i0:i1, j0:j1], ((j1 - j0) * s, (i1 - i0) * s),
+                        interpolation=cv2.INTER_LINEAR)
+        return up[y0 - i0 * s:y1 - i0 * s, x0 - j0 * s:x1 - j0 * s]
 
 
 def belt_model(image: np.ndarray) -> BeltModel:

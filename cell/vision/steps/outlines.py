@@ -72,21 +72,26 @@ def ring(contour: np.ndarray, *, hole: bool) -> Ring:
 
 def outline_of_mask(mask: np.ndarray, x0: int, y0: int, *, frame: tuple[int, int],
                     margin: int = 1, min_area: float = 0.0) -> list[Outline]:
-    """The outlines of the regions of ``mask`` (uint8, nonzero inside), whose top-left
-    pixel lies at (x0, y0) of a frame of size ``frame`` (width, height); a region within
-    ``margin`` px of the frame's border is partial; regions under ``min_area`` px^2 are
-    left out."""
+    """The outlines of the regions of ``mask`` (uint8, 255 inside, 0 outside), whose
+    top-left pixel lies at (x0, y0) of a frame of size ``frame`` (width, height); a region
+    within ``margin`` px of the frame's border is partial; regions under ``min_area`` px^2
+    are left out."""
     contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE,
                                            offset=(x0, y0))
+    if not contours:
+        return []
     out = []
+    alone = int(np.count_nonzero(hierarchy[0, :, 3] < 0)) == 1  # one region: its pixels are the mask's
     for i, c in enumerate(contours):
         if hierarchy[0, i, 3] >= 0 or len(c) < 3:
             continue  # a hole: taken with its outer contour
         holes = [contours[j] for j in _children(hierarchy[0], i)
                  if cv2.contourArea(contours[j]) >= _MIN_HOLE_PX]
-        own = np.zeros_like(mask)
-        cv2.drawContours(own, [c, *holes], -1, 255, cv2.FILLED, offset=(-x0, -y0))
-        own[mask == 0] = 0
+        own = mask
+        if not alone:
+            own = np.zeros_like(mask)
+            cv2.drawContours(own, [c, *holes], -1, 255, cv2.FILLED, offset=(-x0, -y0))
+            own[mask == 0] = 0
         m = cv2.moments(own, binaryImage=True)
         if m["m00"] < max(min_area, 1.0):
             continue
@@ -142,7 +147,7 @@ def _refined(region: np.ndarray, x0: int, y0: int, fg: Foreground, settings: Vis
     level = max(fg.threshold, settings.edge_level * _quantile(diff[inside], 0.25))
     keep = np.where((region > 0) & (diff > level), np.uint8(255), np.uint8(0))
     if settings.shadow_chroma > 0 and not fg.backlit:
-        belt = fg.belt.window(x0, y0, x1, y1).median
+        belt = fg.belt.median_in(x0, y0, x1, y1)
         keep[shadow(fg.image[y0:y1, x0:x1], belt, chroma=settings.shadow_chroma,
                     noise=fg.noise)] = 0
     return keep

@@ -11,14 +11,12 @@ from cell.vision.steps.foreground import belt_model, colour_difference, find_for
 from tests.vision.steps import drawn
 
 
-def test_belt_window_is_the_whole_model_resized_there():
+def test_the_belt_median_in_a_window_is_the_whole_model_resized_there():
     rng = np.random.default_rng(3)
     model = belt_model(rng.integers(0, 256, (480, 640, 3), dtype=np.uint8))
     whole = model.at((640, 480))
     for x0, y0, x1, y1 in ((0, 0, 37, 21), (100, 50, 180, 130), (601, 455, 640, 480), (8, 8, 9, 9)):
-        window = model.window(x0, y0, x1, y1)
-        for a, b in ((window.median, whole.median), (window.low, whole.low), (window.high, whole.high)):
-            np.testing.assert_array_equal(a, b[y0:y1, x0:x1])
+        np.testing.assert_array_equal(model.median_in(x0, y0, x1, y1), whole.median[y0:y1, x0:x1])
 
 
 def test_no_difference_on_the_belt_nor_where_it_meets_the_table():

@@ -25,6 +25,7 @@ import argparse
 import json
 import math
 import time
+from dataclasses import astuple, fields
 
 import cv2
 import numpy as np
@@ -32,7 +33,7 @@ import numpy as np
 from cell.benchmarks import fmt, int_in
 from cell.catalogue import KINDS, LIGHTING_PRESETS
 from cell.scenario import scenario_from_dict
-from cell.vision.detector import PartDetector
+from cell.vision.detector import PartDetector, StepTimes
 from cell.vision.settings import VisionSettings
 
 __all__ = ["MAX_SCENES", "SEED_BASE", "cold_start", "main", "parser", "run"]
@@ -43,6 +44,7 @@ _MAX_SEED = 2**63 - 1  # the scenario's seed range
 _PARTS_PER_SCENE = 8
 _VIEW_X = 0.165  # half-range of part centres along the belt around the pick zone (m)
 _VIEW_Y = 0.045  # half-range across the belt (m)
+_STEPS = tuple(f.name for f in fields(StepTimes))
 _REQUIRED = {"material": 0.995, "kind": 0.99, "pos_p95_mm": 1.0, "yaw_p95_deg": 2.0,
              "latency_ms": 5.0, "latency_over_render": 0.5, "cold_s": 5.0}
 
@@ -227,7 +229,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
         p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0, "kind_ok": 0,
             "false": 0, "missed": 0, "partial_ok": 0, "partial_wrong": 0, "touching_pairs": 0,
             "touching_split": 0, "pos_err": [], "yaw_err": [], "latency": [], "again": [], "render": [],
-            "per_part": [],
+            "steps": [], "per_part": [],
             "material_errors": [], "kind_errors": []}
         for p in presets
     }
@@ -251,6 +253,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
                 dets = detector.detect(frame.rgb, frame.camera)
                 t_detect = time.perf_counter() - t0
                 s = stats[preset]
+                s["steps"].append(astuple(detector.last_times))
                 s["latency"].append(t_detect)
                 s["render"].append(t_render)
                 s["per_part"].append(t_detect / max(len(np.unique(seg)) - 1, 1))
@@ -347,6 +350,8 @@ def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER
             "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
             "render_ms": ren,
             "latency_over_render": lat / ren if lat is not None and ren else None,
+            "step_ms": {name: _pct([t[i] for t in s["steps"]], 50, 1e3)
+                        for i, name in enumerate(_STEPS)},
             "material_errors": sorted(set(s["material_errors"]))[:10],
             "kind_errors": sorted(set(s["kind_errors"]))[:10],
         }
@@ -372,6 +377,10 @@ def _print(report: dict) -> None:
               f"{fmt(r['latency_ms'], '>5.2f')} {fmt(r['latency_p95_ms'], '>5.2f')} "
               f"{fmt(r['repeat_latency_ms'], '>5.2f')} {fmt(r['latency_per_part_ms'], '>5.2f')} "
               f"{fmt(r['latency_over_render'], '>7.3f')}")
+    print(f"{'ms/step':<8} " + " ".join(f"{name:>10}" for name in _STEPS)
+          + "  (median per frame; parts = kind and touching parts)")
+    for preset, r in report["presets"].items():
+        print(f"{preset:<8} " + " ".join(fmt(r["step_ms"][name], ">10.2f") for name in _STEPS))
     for preset, r in report["presets"].items():
         if r["material_errors"] or r["kind_errors"]:
             print(f"  {preset}: material errors {r['material_errors']} kind errors {r['kind_errors']}")

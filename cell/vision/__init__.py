@@ -14,6 +14,7 @@ _WHERE = {
     # the part detector and its settings
     "Detection": "detector",
     "PartDetector": "detector",
+    "StepTimes": "detector",
     "VisionSettings": "settings",
     "Footprint": "steps.footprint",
     "describe_footprint": "steps.footprint:describe",

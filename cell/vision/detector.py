@@ -19,6 +19,7 @@ A blob at the image border is reported ``partial``, with kind ``unknown`` and no
 
 from __future__ import annotations
 
+import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -36,7 +37,7 @@ from cell.vision.steps.outlines import Outline, find_outlines
 from cell.vision.steps.pose import part_pose
 from cell.vision.steps.split import Piece, split_blob
 
-__all__ = ["Detection", "PartDetector"]
+__all__ = ["Detection", "PartDetector", "StepTimes"]
 
 _LONGEST = max(k.length for k in KINDS.values())  # m: the longest part
 _WELL = 9.0  # a blob whose kind scores under this is one part: no cut is tried
@@ -80,10 +81,27 @@ class Detection:
         return out
 
 
+@dataclass(frozen=True)
+class StepTimes:
+    """Wall time (seconds) of each step of one detection: ``foreground`` (step 1),
+    ``outlines`` (2), ``parts`` (3 and 4: kind and touching parts), ``material`` (5) and
+    ``pose`` (6, with the detections' assembly)."""
+
+    foreground: float
+    outlines: float
+    parts: float
+    material: float
+    pose: float
+
+
 class PartDetector:
-    """Finds, names and locates parts in an RGB frame. See the module docstring."""
+    """Finds, names and locates parts in an RGB frame. See the module docstring.
+
+    ``last_times`` holds the :class:`StepTimes` of the latest :meth:`detect` (None before
+    the first)."""
 
     def __init__(self, settings: VisionSettings | None = None) -> None:
+        self.last_times: StepTimes | None = None
         self.settings = settings if settings is not None else VisionSettings()
         if not isinstance(self.settings, VisionSettings):
             raise VisionError(
@@ -94,17 +112,24 @@ class PartDetector:
         """Detections in ``image`` (uint8 RGB, (H, W, 3)) seen by ``camera``."""
         _check_frame(image, camera)
         st = self.settings
+        t0 = time.perf_counter()
         plane = TablePlane(camera, st.plane_z)
         fg = find_foreground(image, st)                                      # step 1
+        t1 = time.perf_counter()
         min_px = st.min_area_mm2 * 1e-6 / plane.m_per_px**2
         blobs = find_outlines(fg, st, min_px=min_px,                         # step 2
                               max_px=2.5 * _LONGEST / plane.m_per_px)
+        t2 = time.perf_counter()
         pieces = [p for blob in blobs for p in self._parts(blob, fg, plane)]   # steps 3, 4
         pieces.sort(key=lambda p: p.blob.centroid)
+        t3 = time.perf_counter()
         materials = part_materials(image, _own_pixels(image.shape[:2], pieces),  # step 5
                                    [p.blob.pixels for p in pieces], settings=st, backlit=fg.backlit)
-        return [_detection(i, p, m)                                             # step 6
-                for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]
+        t4 = time.perf_counter()
+        out = [_detection(i, p, m)                                              # step 6
+               for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]
+        self.last_times = StepTimes(t1 - t0, t2 - t1, t3 - t2, t4 - t3, time.perf_counter() - t4)
+        return out
 
     def _parts(self, blob: Outline, fg: Foreground, plane: TablePlane) -> list[Piece]:
         """The part(s) in a blob: itself when a kind fits it well; its pieces when it is

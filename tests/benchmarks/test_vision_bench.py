@@ -21,6 +21,10 @@ def test_quick_run_reports_each_preset():
         assert r["latency_p95_ms"] >= r["latency_ms"]
         assert 0.0 <= r["material_accuracy"] <= 1.0
         assert 0.0 <= r["recall"] <= 1.0
+        steps = r["step_ms"]  # where the time goes: the medians of each step
+        assert list(steps) == ["foreground", "outlines", "parts", "material", "pose"]
+        assert all(v >= 0 for v in steps.values()) and steps["foreground"] > 0
+        assert sum(steps.values()) <= 1.5 * r["latency_p95_ms"]
     assert report["presets"]["back"]["material_wrong"] == 0
 
 

@@ -203,3 +203,18 @@ def test_same_frame_same_detections_from_any_detector(spread):
     b = [d.to_dict() for d in first.detect(frame.rgb, frame.camera)]
     c = [d.to_dict() for d in PartDetector().detect(frame.rgb, frame.camera)]
     assert a and a == b == c
+
+
+def test_the_detector_times_each_step_of_the_latest_detection(spread):
+    from cell.vision.detector import StepTimes
+
+    detector = PartDetector()
+    assert detector.last_times is None
+    spread.set_lighting("front")
+    frame = spread.render(depth=False, seg=False)
+    detector.detect(frame.rgb, frame.camera)
+    times = detector.last_times
+    assert isinstance(times, StepTimes)
+    assert all(t >= 0 for t in (times.foreground, times.outlines, times.parts, times.material,
+                                times.pose))
+    assert times.foreground > 0

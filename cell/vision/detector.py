@@ -14,7 +14,8 @@ module of :mod:`cell.vision.steps`, in the order they run:
 5. **material** (:mod:`~cell.vision.steps.material`): grain and white-balanced albedo;
 6. **pose** (:mod:`~cell.vision.steps.pose`): position and yaw on the table plane.
 
-A blob at the image border is reported ``partial``, with kind ``unknown`` and no position.
+A blob at the image border is reported ``partial``, with kind ``unknown`` and no position;
+a blob whose centre lies off the belt (``vision.belt_y``) is no part.
 """
 
 from __future__ import annotations
@@ -133,9 +134,13 @@ class PartDetector:
 
     def _parts(self, blob: Outline, fg: Foreground, plane: TablePlane) -> list[Piece]:
         """The part(s) in a blob: itself when a kind fits it well; its pieces when it is
-        touching parts; none when it is not a part. A blob at the image border is one
-        part of kind ``unknown`` (:func:`_partial`)."""
+        touching parts; none when it is not a part (its centre off the belt, see
+        ``vision.belt_y``). A blob at the image border is one part of kind ``unknown``
+        (:func:`_partial`)."""
         st = self.settings
+        (_, y), = plane.points(np.array([blob.centroid]), 0.0)
+        if not st.belt_y[0] <= y <= st.belt_y[1]:
+            return []  # a shadow on the table, a rail: nothing lies there
         if blob.partial:
             return _partial(blob, plane, st)
         fit = fit_kind(blob, plane, min_confidence=st.min_kind_confidence)

@@ -80,6 +80,11 @@ class VisionSettings:
     plane_z: float = setting(
         0.08, lo=-10.0, hi=10.0, doc="world height of the surface the parts lie on (m)"
     )
+    belt_y: tuple[float, ...] = setting(
+        (0.37, 0.53), lo=-10.0, hi=10.0, length=2,
+        doc="the belt's extent across it, as world y (m, low then high): a blob whose centre "
+        "on the table plane lies outside is no part (a shadow on the table, a rail)",
+    )
     belt_rgb: tuple[float, ...] = setting(
         (0.22, 0.30, 0.42), lo=0.0, hi=1.0, length=3,
         doc="belt reflectance per channel (0..1), the white-balance reference",
@@ -139,3 +144,7 @@ class VisionSettings:
             raise ScenarioError(
                 f"{where}: key 'vision.min_area_mm2' must be below 'vision.max_area_mm2'"
             )
+        if self.belt_y[0] >= self.belt_y[1]:
+            raise ScenarioError(
+                f"{where}: key 'vision.belt_y' must be [low, high] with low < high, got "
+                f"{list(self.belt_y)}")

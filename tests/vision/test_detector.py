@@ -189,6 +189,34 @@ def test_a_solid_disc_of_a_washers_size_is_unknown_not_a_washer():
     assert det.position is not None  # a part all the same: the sort job rejects it
 
 
+def test_a_blob_off_the_belt_is_no_part_unless_the_belt_reaches_it():
+    """A shadow on the table or a piece of the rail beside the belt, drawn here as a washer
+    100 mm off the belt's centre line, is no part; a belt set that wide finds it."""
+    import cv2
+
+    from cell.sim import layout
+    from tests.vision.steps import drawn
+
+    assert VisionSettings().belt_y == pytest.approx(
+        (layout.CONVEYOR_Y - layout.BELT_WIDTH / 2, layout.CONVEYOR_Y + layout.BELT_WIDTH / 2))
+    img = drawn.frame()
+    for y in (0.0, 100.0):
+        cv2.circle(img, drawn.mm(0, y), drawn.px(10), (200, 200, 195), -1)
+        cv2.circle(img, drawn.mm(0, y), drawn.px(5.25), drawn.BELT, -1)
+    (on_belt,) = PartDetector().detect(img, drawn.camera())
+    assert on_belt.kind == "washer" and on_belt.position[1] == pytest.approx(drawn.BELT_Y, abs=1e-3)
+    wide = PartDetector(VisionSettings(belt_y=(0.30, 0.60))).detect(img, drawn.camera())
+    assert sorted(round(d.position[1], 2) for d in wide) == [drawn.BELT_Y, 0.55]
+
+
+def test_the_belt_across_must_run_low_to_high():
+    from cell.errors import ScenarioError
+    from cell.scenario import scenario_from_dict
+
+    with pytest.raises(ScenarioError, match="vision.belt_y"):
+        scenario_from_dict({"vision": {"belt_y": [0.5, 0.4]}})
+
+
 def test_same_frame_same_detections_from_any_detector(spread):
     """Detection is a function of the frame: two detectors, and one detector after other
     frames, give identical results (no state carried between frames)."""

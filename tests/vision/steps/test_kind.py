@@ -68,5 +68,5 @@ def test_a_drawn_washer_is_a_washer():
     assert fit.kind == "washer" and fit.confidence > 0.9
     u, v = drawn.mm(0, 0)  # (the circle's centre, rounded to a pixel)
     want = ((u - (drawn.W - 1) / 2) / drawn.PX_PER_MM * 1e-3,
-            -(v - (drawn.H - 1) / 2) / drawn.PX_PER_MM * 1e-3)
+            drawn.BELT_Y - (v - (drawn.H - 1) / 2) / drawn.PX_PER_MM * 1e-3)
     assert fit.footprint.centroid == pytest.approx(want, abs=5e-5)

@@ -350,7 +350,7 @@ def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER
             "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
             "render_ms": ren,
             "latency_over_render": lat / ren if lat is not None and ren else None,
-            "step_ms": {name: _pct([t[i] for t in s["steps"]], 50, 1e3)
+            "step_ms": {name: _pct([t[i] for t in s.get("steps", [])], 50, 1e3)
                         for i, name in enumerate(_STEPS)},
             "material_errors": sorted(set(s["material_errors"]))[:10],
             "kind_errors": sorted(set(s["kind_errors"]))[:10],

@@ -6,8 +6,12 @@ calibration file that ``cell calibrate`` writes, with ``--camera-name NAME`` to 
 camera (a fixed camera: a wrist camera's pose depends on the arm's, which an image file
 does not carry). Detector
 settings come from the ``[vision]`` section of ``--scenario FILE`` (defaults without
-one), then ``--set key=value`` overrides: ``vision.threshold_method=otsu``, or simply
-``threshold_method=otsu`` (a key of the vision section needs no prefix).
+one), then ``--set key=value`` overrides: ``vision.segmentation=otsu``, or simply
+``segmentation=otsu`` (a key of the vision section needs no prefix).
+
+Parts are looked for on the belt, in the camera file's world frame (the cell's): on the
+plane ``vision.plane_z`` high, between world y = ``vision.belt_y``; a camera of another
+set-up needs both set.
 """
 
 from __future__ import annotations
@@ -43,7 +47,11 @@ MAX_PIXELS = 50_000_000  # the largest image decoded (8K is 33 Mpx): bigger is r
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="cell detect", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(
+        prog="cell detect", description=__doc__.splitlines()[0],
+        epilog="Parts are looked for on the belt, in the camera file's world frame (the cell's): "
+        "on the plane vision.plane_z high, between world y = vision.belt_y; a camera of another "
+        "set-up needs both set (--set plane_z=... --set belt_y=[low,high]).")
     p.add_argument("image", help="image file (PNG, JPEG, ...), read as RGB; its size must be the "
                    f"camera's, at most {MAX_PIXELS:,} pixels")
     p.add_argument("--camera", required=True,

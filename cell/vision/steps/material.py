@@ -20,8 +20,12 @@ from brass, so the classifier looks at two cues that do not depend on hue:
 
 The albedo gives a prior P(metal), held within 0.05..0.95; clear grain multiplies its
 odds by 50, a surface that would clearly show a metal's grain but has none divides them
-by 50. Under a back-light (or against a light table) a part is a silhouette: neither cue
-exists and the material is ``"unknown"`` rather than a guess.
+by 50. A colour no metal finish has (its chromaticity, the albedo over its sum, farther
+than 0.12 from every metal's: a green or a saturated yellow) lowers the floor to 0.01, so
+grain alone, which a moulded part's shading can fake under directional light, does not
+make it metal; a brighter or darker reading (a white balance off under directional light)
+leaves the chromaticity as it is. Under a back-light (or against a light table) a part is
+a silhouette: neither cue exists and the material is ``"unknown"`` rather than a guess.
 
 Per part, :func:`part_materials` measures the interior, away from the edge's blend with
 the belt (the mask eroded 5x5, or 3x3 where that leaves under 150 pixels: a square nut's
@@ -57,6 +61,16 @@ _GRAIN_MEAN = 0.9  # a metal grain's mean brightness factor (texture mean over t
 _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == "metal" else 1.0)
                            for m in MATERIALS.values()])
 _FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
+_PRIOR_FLOOR, _OFF_HUE_FLOOR = 0.05, 0.01  # the prior's floor; for a colour no metal has
+_OFF_HUE = 0.12  # chromaticity distance from every metal finish's that no metal reads at
+
+
+def _chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """Each colour (..., 3) over its sum: its hue and saturation, free of brightness."""
+    return rgb / np.maximum(rgb.sum(axis=-1, keepdims=True), 1e-9)
+
+
+_METAL_CHROMATICITY = _chromaticity(_FINISH_ALBEDO[_FINISH_METAL])
 # columns of a statistics row (_statistics)
 _N, _KEPT, _MEAN, _NORM, _S_PAR, _S_NOISE2, _UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
 
@@ -171,10 +185,11 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
                       grain_z_min: float, albedo_sigma: float) -> tuple[str, float]:
     """``("metal" | "plastic" | "unknown", confidence)`` for one part: the albedo's nearest
     catalogue finishes give a prior P(metal) (Gaussian tolerance ``albedo_sigma``), held
-    within 0.05..0.95; grain then multiplies the odds: clear grain (``grain >= grain_metal``
-    with ``grain_z >= grain_z_min``) on a surface bright enough to show it counts 50:1 for
-    metal; grain below 0.45 * ``grain_metal`` where a metal's grain would be clearly visible
-    (``grain_visibility`` >= 6) counts 1:50 against. Back-lit: ``unknown``, 0."""
+    within 0.05..0.95 (from 0.01 for a colour no metal has); grain then multiplies the
+    odds: clear grain (``grain >= grain_metal`` with ``grain_z >= grain_z_min``) on a
+    surface bright enough to show it counts 50:1 for metal; grain below 0.45 *
+    ``grain_metal`` where a metal's grain would be clearly visible (``grain_visibility`` >= 6)
+    counts 1:50 against. Back-lit: ``unknown``, 0."""
     if backlit:
         return _UNKNOWN
     f = features
@@ -293,11 +308,14 @@ def _grain_evidence(grain: np.ndarray, z: np.ndarray, even: np.ndarray, *, grain
 def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_z_min: float,
             albedo_sigma: float) -> list[tuple[str, float]]:
     """Labels of parts from their albedos (P, 3) and grain rows (P, 4, as :func:`_grain`):
-    the albedo's softmax prior over the catalogue finishes, held within 0.05..0.95, its odds
-    multiplied by the grain's evidence (see :func:`classify_material`)."""
+    the albedo's softmax prior over the catalogue finishes, held within 0.05..0.95 (0.01..0.95
+    for a colour no metal has), its odds multiplied by the grain's evidence (see
+    :func:`classify_material`)."""
     d2 = ((_FINISH_ALBEDO - albedo[:, None]) ** 2).sum(axis=2) / albedo_sigma**2
     w = np.exp(-(d2 - d2.min(axis=1, keepdims=True)) / 2)
-    prior = np.clip(w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1), 0.05, 0.95)
+    hue_off = np.linalg.norm(_chromaticity(albedo)[:, None] - _METAL_CHROMATICITY, axis=2).min(axis=1)
+    floor = np.where(hue_off > _OFF_HUE, _OFF_HUE_FLOOR, _PRIOR_FLOOR)
+    prior = np.clip(w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1), floor, 1 - _PRIOR_FLOOR)
     g, z, vis, even = grain.T
     lit = albedo.mean(axis=1) >= 0.25
     evidence = np.where(lit, _grain_evidence(g, z, even, grain_metal=grain_metal,

@@ -155,6 +155,21 @@ def test_albedo_alone_is_never_sure_and_clear_grain_wins():
     assert label == "metal" and conf == pytest.approx(odds / (1 + odds), rel=1e-9)
 
 
+def test_grain_alone_does_not_make_a_colour_no_metal_has_metal():
+    """Under raking light a green plastic bolt's shading passed for grain: clear grain
+    multiplied a prior held at 0.05 to metal at 0.72. No metal finish is green: its prior is
+    held from 0.01, and the same grain leaves it plastic; on a grey part it still says metal,
+    and a brighter or darker reading of the same green changes nothing."""
+    green = np.array(MATERIALS["plastic_green"].rgba[:3])
+    for scale in (0.8, 1.0, 1.3):
+        label, _ = classify_material(_features(0.1, 10.0, albedo=scale * green), backlit=False, **OPTS)
+        assert label == "plastic", scale
+    grey = classify_material(_features(0.1, 10.0, albedo=(0.45, 0.45, 0.46)), backlit=False, **OPTS)
+    assert grey[0] == "metal"
+    brass = np.array(MATERIALS["brass"].rgba[:3]) * 0.9  # a metal's own hue keeps the 0.05 floor
+    assert classify_material(_features(0.1, 10.0, albedo=brass), backlit=False, **OPTS)[0] == "metal"
+
+
 # noise_sigma
 
 

@@ -25,7 +25,7 @@ import argparse
 import json
 import math
 import time
-from dataclasses import astuple, fields
+from dataclasses import fields
 
 import cv2
 import numpy as np
@@ -253,7 +253,7 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
                 dets = detector.detect(frame.rgb, frame.camera)
                 t_detect = time.perf_counter() - t0
                 s = stats[preset]
-                s["steps"].append(astuple(detector.last_times))
+                s["steps"].append(detector.last_times)
                 s["latency"].append(t_detect)
                 s["render"].append(t_render)
                 s["per_part"].append(t_detect / max(len(np.unique(seg)) - 1, 1))
@@ -350,8 +350,8 @@ def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER
             "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
             "render_ms": ren,
             "latency_over_render": lat / ren if lat is not None and ren else None,
-            "step_ms": {name: _pct([t[i] for t in s.get("steps", [])], 50, 1e3)
-                        for i, name in enumerate(_STEPS)},
+            "step_ms": {name: _pct([getattr(t, name) for t in s.get("steps", [])], 50, 1e3)
+                        for name in _STEPS},
             "material_errors": sorted(set(s["material_errors"]))[:10],
             "kind_errors": sorted(set(s["kind_errors"]))[:10],
         }

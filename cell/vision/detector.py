@@ -32,7 +32,7 @@ from cell.vision._checks import check_colour
 from cell.vision.settings import VisionSettings
 from cell.vision.steps.footprint import TablePlane
 from cell.vision.steps.foreground import Foreground, find_foreground
-from cell.vision.steps.kind import KindFit, fit_kind
+from cell.vision.steps.kind import KindFit, fit_kind, holds_another
 from cell.vision.steps.material import part_materials
 from cell.vision.steps.outlines import Outline, find_outlines
 from cell.vision.steps.pose import part_pose
@@ -144,7 +144,7 @@ class PartDetector:
         if blob.partial:
             return _partial(blob, plane, st)
         fit = fit_kind(blob, plane, min_confidence=st.min_kind_confidence)
-        if fit.kind != "unknown" and fit.score < _WELL:
+        if fit.kind != "unknown" and fit.score < _WELL and not holds_another(fit):
             return [Piece(blob, fit)]
         if fit.kind == "unknown" and _faint(blob, fg, st.faint_contrast):
             return []  # belt texture or noise at the threshold: no parts to search for

@@ -246,3 +246,39 @@ def test_the_detector_times_each_step_of_the_latest_detection(spread):
     assert all(t >= 0 for t in (times.foreground, times.outlines, times.parts, times.material,
                                 times.pose))
     assert times.foreground > 0
+
+
+def _bracket(img, colour=(200, 200, 195)):
+    """An L bracket drawn with its corner at (-40, -6) mm: legs 40 x 12 and 30 x 12 mm."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    cv2.rectangle(img, drawn.mm(-40, 6), drawn.mm(0, -6), colour, -1)
+    cv2.rectangle(img, drawn.mm(-40, 24), drawn.mm(-28, 6), colour, -1)
+
+
+def test_a_nut_in_a_brackets_inner_corner_is_found():
+    """A square nut nested in an L bracket's inner corner leaves the pair's outline the
+    bracket's (its rectangle); the pair's area holds a second part, so it is cut."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    _bracket(img)
+    cv2.rectangle(img, drawn.mm(-28, 19), drawn.mm(-15, 6), (200, 60, 50), -1)  # the nut
+    cv2.circle(img, drawn.mm(-21.5, 12.5), drawn.px(4), drawn.BELT, -1)  # its hole
+    dets = PartDetector().detect(img, drawn.camera())
+    assert sorted(d.kind for d in dets) == ["l_bracket", "square_nut"]
+    nut = next(d for d in dets if d.kind == "square_nut")
+    assert nut.centroid == pytest.approx(drawn.mm(-21.5, 12.5), abs=1.0)
+
+
+def test_a_bracket_alone_is_not_cut():
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    _bracket(img)
+    (det,) = PartDetector().detect(img, drawn.camera())
+    assert det.kind == "l_bracket"

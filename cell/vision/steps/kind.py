@@ -30,7 +30,8 @@ from cell.catalogue import KINDS, PartKind
 from cell.vision.steps.footprint import Footprint, TablePlane
 from cell.vision.steps.outlines import Outline
 
-__all__ = ["KindFit", "classify_kind", "fit_kind", "nominal_descriptors", "score_kinds"]
+__all__ = ["KindFit", "classify_kind", "fit_kind", "holds_another", "nominal_area",
+           "nominal_descriptors", "score_kinds"]
 
 _SIGMA_SIZE = 1.2e-3  # m: tolerance on footprint length and width
 _SIGMA_HOLE = 0.09  # tolerance on the hole fraction
@@ -68,7 +69,22 @@ def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
     return kind.length, kind.width, hole / outer, solidity
 
 
+def nominal_area(kind: PartKind) -> float:
+    """A kind's net area seen from above (m^2): its outline less its hole."""
+    leg = 0.012  # an L bracket's legs are 12 mm wide
+    outer = {"hex_nut": 2 * math.sqrt(3) * (kind.width / 2) ** 2,
+             "washer": math.pi * (kind.length / 2) ** 2,
+             "disc": math.pi * (kind.length / 2) ** 2,
+             "l_bracket": kind.length * leg + (kind.width - leg) * leg,
+             "bolt": 0.040 * 0.006 + 0.004 * kind.width,  # shank 40 x 6 mm, head 4 mm long
+             }.get(kind.name, kind.length * kind.width)
+    return outer - math.pi * (kind.hole / 2) ** 2
+
+
 KIND_NAMES = tuple(KINDS)
+_AREA = {name: nominal_area(k) for name, k in KINDS.items()}
+# a blob this much larger than its kind may hold a second part: most of the smallest one
+_ROOM = 0.6 * min(_AREA.values())
 _NOMINAL = np.array([nominal_descriptors(k) for k in KINDS.values()])  # (kinds, 4)
 # the facet term per kind: its nominal strength, and the side that counts (-1: only a
 # weaker one, the hex nut; +1: only a stronger one; 0: no term)
@@ -100,6 +116,16 @@ class KindFit:
     confidence: float
     score: float
     footprint: Footprint
+
+
+def holds_another(fit: KindFit) -> bool:
+    """Whether a blob that fits its kind holds more area than the kind by most of the
+    smallest part's (0.6 of it): a second part may lie in it. A part nested in an L
+    bracket's inner corner, or beside a bolt's shank under its head, leaves the outline
+    (its rectangle) the kind's own; only the area tells. A single part reads at most
+    about 70 mm^2 over its kind's area (an L bracket under raking light), a nut adds
+    120 mm^2 or more."""
+    return fit.kind in _AREA and fit.footprint.area > _AREA[fit.kind] + _ROOM
 
 
 def classify_kind(scores: np.ndarray, hole_z2: float = 0.0, *,

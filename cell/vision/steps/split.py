@@ -10,7 +10,7 @@ best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
    Woods, *Digital Image Processing*, ch. 11: convex deficiency).
 2. **Distance-transform cores** (``cv2.distanceTransform``): the blob's pixels deeper
    than a fraction of its largest depth fall apart into one core per part; every pixel
-   goes to its nearest core (``cv2.distanceTransformWithLabels``), the erosion-based
+   goes to its nearest core (``cv2.distanceTransform`` to each), the erosion-based
    separation of Gonzalez & Woods, ch. 9-10. Tried when no straight cut fits well.
 3. **Colours**: two finishes that touch (a red bracket on a grey one) are two clusters
    in Lab (2-means, ``cv2.kmeans``, L weighted 0.5), taken only when the clusters are
@@ -19,19 +19,24 @@ best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
 
 A piece that fits no kind and is large enough to hold two parts is cut again (chains of
 up to three parts); the whole search tries at most 40 cuts per blob and keeps the best.
+A piece of the best cut that fits its kind but holds another part's area (a nut nested
+in an L bracket's inner corner) gets a few cuts of its own, and a region of the blob that
+no piece covers (a part touching the others at one corner only falls away at the cut) is
+a piece when it fits a kind. The detector sends a blob here also when it fits a kind but
+holds another part's area (:func:`~cell.vision.steps.kind.holds_another`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from cell.vision.steps.footprint import TablePlane
-from cell.vision.steps.kind import KindFit, fit_kind
+from cell.vision.steps.kind import KindFit, fit_kind, holds_another
 from cell.vision.steps.material import PartPixels
 from cell.vision.steps.outlines import Outline, outline_of_mask
 
@@ -40,8 +45,10 @@ __all__ = ["Piece", "split_blob"]
 _GOOD = 6.0  # mean piece score at which a cut is taken without trying more
 _ACCEPT = 9.0  # a piece (or a cut, on average) scoring worse fits no kind
 _MIN_PAIR_MM2 = 200.0  # two parts cover at least this (mm^2): a smaller piece is not cut
+_MIN_PART_MM2 = 60.0  # the smallest part covers about 100 mm^2 (a square nut's ring)
 _BUDGET = 40  # cuts tried per blob, all depths together
 _MAX_DEPTH = 1  # pieces of pieces: chains of up to three parts
+_FEW = 4  # cuts tried on a piece that fits its kind but may hold another (_nested)
 _MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest is 11 mm)
 _BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better
 _MIN_NOTCH_PX = 2.0  # a convexity defect at least this deep (px) may be a contact
@@ -80,8 +87,34 @@ def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: Table
     if whole.kind != "unknown":  # it fits a kind, poorly: a clearly better cut wins
         limit = max(_ACCEPT, min(whole.score - _BETTER, _POOR))
     h, w = image.shape[:2]
-    cost, pieces = _best_cut(blob.pixels, _Search(plane, image, (w, h), min_confidence), depth=0)
-    return pieces if cost < limit else []
+    search = _Search(plane, image, (w, h), min_confidence)
+    cost, pieces = _best_cut(blob.pixels, search, depth=0)
+    if cost >= limit:
+        return []
+    pieces = [q for p in pieces for q in _nested(p, search)]
+    return pieces + _left_out(blob.pixels, pieces, search)
+
+
+def _left_out(pixels: PartPixels, pieces: list[Piece], search: _Search) -> list[Piece]:
+    """Parts a cut left out: the blob's regions that no piece covers (after a 3x3 opening:
+    not the cut's line), each kept when it fits a kind. A third part that touches the
+    others at a corner only falls apart from them at the cut (4-connected pieces), and a
+    cut keeps its two largest pieces."""
+    rest = pixels.mask.copy()
+    for p in pieces:
+        own = p.blob.pixels
+        h, w = own.mask.shape
+        y, x = own.y0 - pixels.y0, own.x0 - pixels.x0
+        rest[y:y + h, x:x + w] &= ~own.mask
+    rest = cv2.morphologyEx(rest, cv2.MORPH_OPEN, _SQUARE)
+    out = []
+    for blob in outline_of_mask(rest, pixels.x0, pixels.y0, frame=search.frame):
+        if search.plane.area_mm2(blob) < _MIN_PART_MM2:
+            continue
+        fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
+        if fit.kind != "unknown" and fit.score < _ACCEPT:
+            out.append(Piece(blob, fit))
+    return out
 
 
 def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float, list[Piece]]:
@@ -129,6 +162,17 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
     return out
 
 
+def _nested(piece: Piece, search: _Search) -> list[Piece]:
+    """A piece of the best cut that fits its kind but holds more area
+    (:func:`~cell.vision.steps.kind.holds_another`) cut in two when one of the first few
+    cuts gives pieces that fit (a part nested in it shows at the first notches); else
+    the piece itself."""
+    if not holds_another(piece.fit):
+        return [piece]
+    cost, pieces = _best_cut(piece.blob.pixels, replace(search, budget=_FEW), depth=_MAX_DEPTH)
+    return pieces if cost < _ACCEPT else [piece]
+
+
 def _candidates(pixels: PartPixels, search: _Search, depth: int
                 ) -> Iterator[tuple[str, list[tuple[np.ndarray, tuple | None]]]]:
     """Candidate cuts, lazily, in the order they are tried: (kind of cut, pieces), each
@@ -141,8 +185,9 @@ def _candidates(pixels: PartPixels, search: _Search, depth: int
     dist = cv2.distanceTransform(mask, cv2.DIST_L2, 5)
     for level in _CORE_LEVELS:
         cores = np.uint8(dist > level * dist.max())
-        if cv2.connectedComponents(cores)[0] > 2:
-            yield "cores", _nearest(mask, cores)
+        n, labels = cv2.connectedComponents(cores)
+        if n > 2:
+            yield "cores", _nearest(mask, labels)
     if depth == 0:
         seeds = _colour_seeds(pixels, search.image)
         if seeds is not None:
@@ -198,13 +243,14 @@ def _cut_along(mask: np.ndarray, a: np.ndarray, b: np.ndarray
 
 
 def _nearest(mask: np.ndarray, seeds: np.ndarray) -> list[tuple[np.ndarray, None]]:
-    """``mask`` shared out among ``seeds`` (uint8, nonzero: one region per piece): every
-    pixel goes to its nearest seed region."""
-    _, labels = cv2.distanceTransformWithLabels(np.uint8(seeds == 0), cv2.DIST_L2, 5,
-                                                labelType=cv2.DIST_LABEL_CCOMP)
+    """``mask`` shared out among ``seeds`` (int labels, 0 none, 1.. one per piece): every
+    pixel goes to the seed it is nearest to (``cv2.distanceTransform`` to each). Seeds may
+    touch: two colours' regions meet where their parts do."""
+    ids = [k for k in np.unique(seeds) if k > 0]
+    dist = np.stack([cv2.distanceTransform(np.uint8(seeds != k), cv2.DIST_L2, 5) for k in ids])
+    nearest = np.argmin(dist, axis=0)
     inside = mask > 0
-    return [(np.uint8(inside & (labels == k)) * np.uint8(255), None)
-            for k in np.unique(labels[seeds > 0])]
+    return [(np.uint8(inside & (nearest == i)) * np.uint8(255), None) for i in range(len(ids))]
 
 
 def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:

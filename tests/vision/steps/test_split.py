@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import cv2
+import numpy as np
 import pytest
 
 from cell.vision.settings import VisionSettings
@@ -51,3 +52,23 @@ def test_a_nut_touching_a_brackets_end_is_cut_off_it():
 def test_one_part_is_not_cut():
     _, pieces, _ = _pieces(lambda img: cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1))
     assert pieces == []
+
+
+def test_a_third_part_touching_at_a_corner_only_is_kept():
+    """The cut between two discs leaves a square nut that touches one of them at a corner
+    only (one diagonal step, no shared edge) as a piece of its own: no cut may drop it."""
+    def three(img):
+        cv2.circle(img, drawn.mm(-30, 0), drawn.px(15), (60, 160, 60), -1)
+        cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1)
+        u, v = drawn.mm(0, 0)
+        disc = np.all(img == (200, 200, 195), axis=2)
+        # the first corner of the right disc's staircase up and to the right (its pixels
+        # to the right and above are belt): the nut's lower-left corner goes beside it
+        x, y = min((x, y) for y in range(v - 30, v) for x in range(u + 1, u + 30)
+                   if disc[y, x] and not disc[y, x + 1] and not disc[y - 1, x])
+        side = drawn.px(13)
+        x0, y1 = x + 1, y - 1  # the nut's lower-left corner pixel
+        cv2.rectangle(img, (x0, y1 - side + 1), (x0 + side - 1, y1), (200, 60, 50), -1)
+        cv2.circle(img, (x0 + side // 2, y1 - side // 2), drawn.px(4), drawn.BELT, -1)
+    _, pieces, _ = _pieces(three)
+    assert sorted(p.fit.kind for p in pieces) == ["disc", "disc", "square_nut"]

@@ -41,6 +41,7 @@ from cell.vision.steps.split import Piece, split_blob
 __all__ = ["Detection", "PartDetector", "StepTimes"]
 
 _LONGEST = max(k.length for k in KINDS.values())  # m: the longest part
+_LONGEST_GROUP = 4 * _LONGEST  # m: a longer blob holds a rail (four discs in a row: 120 mm)
 _WELL = 9.0  # a blob whose kind scores under this is one part: no cut is tried
 _NEAR_A_KIND = 18.0  # a blob scoring worse than this for every kind is no part
 _NARROWEST = 0.0095  # m: a blob narrower than this is a strip, no part (the narrowest is 11 mm)
@@ -119,7 +120,7 @@ class PartDetector:
         t1 = time.perf_counter()
         min_px = st.min_area_mm2 * 1e-6 / plane.m_per_px**2
         blobs = find_outlines(fg, st, min_px=min_px,                         # step 2
-                              max_px=2.5 * _LONGEST / plane.m_per_px)
+                              max_px=_LONGEST_GROUP / plane.m_per_px)
         t2 = time.perf_counter()
         pieces = [p for blob in blobs for p in self._parts(blob, fg, plane)]   # steps 3, 4
         pieces.sort(key=lambda p: p.blob.centroid)

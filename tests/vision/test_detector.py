@@ -282,3 +282,20 @@ def test_a_bracket_alone_is_not_cut():
     _bracket(img)
     (det,) = PartDetector().detect(img, drawn.camera())
     assert det.kind == "l_bracket"
+
+
+def test_a_row_of_four_touching_discs_is_four_discs():
+    """Four 30 mm discs edge to edge make a blob 120 mm long: longer than any part, but
+    no rail (a rail is taken out by its straight runs); each disc is found where it lies."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    xs = (-45, -15, 15, 45)
+    for x in xs:
+        cv2.circle(img, drawn.mm(x, 0), drawn.px(15), (200, 200, 195), -1)
+    dets = PartDetector().detect(img, drawn.camera())
+    assert [d.kind for d in dets] == ["disc"] * 4
+    for d, x in zip(dets, xs, strict=True):
+        assert d.centroid == pytest.approx(drawn.mm(x, 0), abs=1.5)

@@ -14,8 +14,9 @@ module of :mod:`cell.vision.steps`, in the order they run:
 5. **material** (:mod:`~cell.vision.steps.material`): grain and white-balanced albedo;
 6. **pose** (:mod:`~cell.vision.steps.pose`): position and yaw on the table plane.
 
-A blob at the image border is reported ``partial``, with kind ``unknown`` and no position;
-a blob whose centre lies off the belt (``vision.belt_y``) is no part.
+A part the image border cuts is reported ``partial``, with kind ``unknown`` and no
+position (the parts touching it are cut off it, as any touching parts); a blob whose
+centre lies off the belt (``vision.belt_y``) is no part.
 """
 
 from __future__ import annotations
@@ -136,15 +137,14 @@ class PartDetector:
     def _parts(self, blob: Outline, fg: Foreground, plane: TablePlane) -> list[Piece]:
         """The part(s) in a blob: itself when a kind fits it well; its pieces when it is
         touching parts; none when it is not a part (its centre off the belt, see
-        ``vision.belt_y``). A blob at the image border is one part of kind ``unknown``
-        (:func:`_partial`)."""
+        ``vision.belt_y``). A blob at the image border: see :meth:`_at_border`."""
         st = self.settings
         (_, y), = plane.points(np.array([blob.centroid]), 0.0)
         if not st.belt_y[0] <= y <= st.belt_y[1]:
             return []  # a shadow on the table, a rail: nothing lies there
-        if blob.partial:
-            return _partial(blob, plane, st)
         fit = fit_kind(blob, plane, min_confidence=st.min_kind_confidence)
+        if blob.partial:
+            return self._at_border(blob, fit, fg, plane)
         if fit.kind != "unknown" and fit.score < _WELL and not holds_another(fit):
             return [Piece(blob, fit)]
         if fit.kind == "unknown" and _faint(blob, fg, st.faint_contrast):
@@ -159,6 +159,22 @@ class PartDetector:
                 or fp.length > 1.3 * _LONGEST or fp.width < _NARROWEST):
             return []  # like no kind at all, larger than two parts, or a strip: no part
         return [Piece(blob, fit)]  # one part (``unknown`` when it fits its kind too poorly)
+
+    def _at_border(self, blob: Outline, fit: KindFit, fg: Foreground, plane: TablePlane
+                   ) -> list[Piece]:
+        """A blob at the image border is one part of kind ``unknown`` (:func:`_partial`),
+        unless it holds parts touching the one the border cuts: then those are parts of
+        their own (the search for touching parts leaves the piece at the border out of a
+        cut's score)."""
+        st = self.settings
+        pieces = []
+        if st.split_touching:
+            pieces = split_blob(blob, fit, image=fg.image, plane=plane,
+                                min_confidence=st.min_kind_confidence)
+        if not pieces:
+            return _partial(blob, fit, plane, st)
+        return [q for p in pieces
+                for q in (_partial(p.blob, p.fit, plane, st) if p.blob.partial else [p])]
 
 
 def _own_pixels(shape: tuple[int, int], pieces: list[Piece]) -> np.ndarray:
@@ -196,10 +212,10 @@ def _faint(blob: Outline, fg: Foreground, contrast: float) -> bool:
     return float(np.partition(diff, k)[k]) < contrast * fg.threshold
 
 
-def _partial(blob: Outline, plane: TablePlane, st: VisionSettings) -> list[Piece]:
-    """A blob at the image border, as a part of kind ``unknown``, unless it is no part (a
-    rail, a belt edge, the table beyond) or a sliver."""
-    fit = fit_kind(blob, plane)
+def _partial(blob: Outline, fit: KindFit, plane: TablePlane, st: VisionSettings
+             ) -> list[Piece]:
+    """A blob at the image border (``fit`` its kind fit), as a part of kind ``unknown``,
+    unless it is no part (a rail, a belt edge, the table beyond) or a sliver."""
     fp = fit.footprint
     if (plane.area_mm2(blob) > st.max_area_mm2 or fp.length > 1.3 * _LONGEST
             or fp.width < st.partial_min_width):

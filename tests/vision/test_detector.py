@@ -299,3 +299,20 @@ def test_a_row_of_four_touching_discs_is_four_discs():
     assert [d.kind for d in dets] == ["disc"] * 4
     for d, x in zip(dets, xs, strict=True):
         assert d.centroid == pytest.approx(drawn.mm(x, 0), abs=1.5)
+
+
+def test_a_part_touching_one_the_border_cuts_is_found():
+    """A disc touching a disc that the image's right border cuts: the one in view is a
+    part of its own, the other is partial (kind unknown, no position)."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    right = (img.shape[1] - 1 - (img.shape[1] - 1) / 2) / drawn.PX_PER_MM  # mm
+    for x in (right, right - 30):
+        cv2.circle(img, drawn.mm(x, 0), drawn.px(15), (200, 200, 195), -1)
+    whole, cut = sorted(PartDetector().detect(img, drawn.camera()), key=lambda d: d.partial)
+    assert (whole.kind, whole.partial) == ("disc", False)
+    assert whole.centroid == pytest.approx(drawn.mm(right - 30, 0), abs=1.5)
+    assert (cut.kind, cut.partial, cut.position) == ("unknown", True, None)

@@ -112,7 +112,7 @@ def _left_out(pixels: PartPixels, pieces: list[Piece], search: _Search) -> list[
         if search.plane.area_mm2(blob) < _MIN_PART_MM2:
             continue
         fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
-        if fit.kind != "unknown" and fit.score < _ACCEPT:
+        if fit.kind != "unknown" and fit.score < _ACCEPT and not blob.partial:
             out.append(Piece(blob, fit))
     return out
 
@@ -129,8 +129,9 @@ def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float
             break
         search.budget -= 1
         pieces = _evaluate(candidate, pixels, search, depth)
-        if pieces:
-            cost = sum(p.fit.score for p in pieces) / len(pieces)
+        scores = [p.fit.score for p in pieces if not p.blob.partial]
+        if scores:  # (a piece at the image border has no kind to fit)
+            cost = sum(scores) / len(scores)
             if cost < best[0]:
                 best = (cost, pieces)
             if cost < _GOOD:
@@ -149,6 +150,9 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
             return []
         blob = max(found, key=lambda b: b.area)
         fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
+        if blob.partial:  # cut by the image border: a part, of no kind
+            out.append(Piece(blob, fit))
+            continue
         if fit.kind == "unknown" or fit.score >= _ACCEPT:
             if depth >= _MAX_DEPTH or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
                 return []
@@ -167,7 +171,7 @@ def _nested(piece: Piece, search: _Search) -> list[Piece]:
     (:func:`~cell.vision.steps.kind.holds_another`) cut in two when one of the first few
     cuts gives pieces that fit (a part nested in it shows at the first notches); else
     the piece itself."""
-    if not holds_another(piece.fit):
+    if piece.blob.partial or not holds_another(piece.fit):
         return [piece]
     cost, pieces = _best_cut(piece.blob.pixels, replace(search, budget=_FEW), depth=_MAX_DEPTH)
     return pieces if cost < _ACCEPT else [piece]

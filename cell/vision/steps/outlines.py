@@ -175,7 +175,9 @@ def _groups(mask: np.ndarray, max_px: float) -> list[np.ndarray]:
         if max(bw, bh) <= max_px:
             out.append(c)
             continue
-        box = mask[by:by + bh, bx:bx + bw]
+        box = np.zeros((bh, bw), np.uint8)  # the group's own pixels: not a neighbour's in its box
+        cv2.drawContours(box, [c], -1, 255, cv2.FILLED, offset=(-bx, -by))
+        box &= mask[by:by + bh, bx:bx + bw]
         rails = cv2.max(cv2.morphologyEx(box, cv2.MORPH_OPEN, np.ones((1, length), np.uint8)),
                         cv2.morphologyEx(box, cv2.MORPH_OPEN, np.ones((length, 1), np.uint8)))
         rest = cv2.morphologyEx(box & ~cv2.dilate(rails, _NEAR), cv2.MORPH_OPEN, _SQUARE)

@@ -75,3 +75,18 @@ def test_a_rail_is_left_out_and_a_part_touching_it_kept():
     blobs = find_outlines(fg, VisionSettings(), min_px=50, max_px=180)
     assert len(blobs) == 1
     assert blobs[0].centroid == pytest.approx((300, 121), abs=2.0)
+
+
+def test_a_part_inside_a_rails_box_is_not_taken_with_the_rail():
+    """A rail with a spur (a shadow joined to it) spans a box that reaches over a part
+    lying apart from it: the part is one outline, not cut at the edge of that box."""
+    img = drawn.frame()
+    img[300:306] = (170, 170, 170)  # a rail across the whole view
+    img[240:300, 100:110] = (170, 170, 170)  # a spur rising from it, up to row 240
+    cv2.circle(img, (300, 240), 18, (200, 60, 50), -1)  # apart, across row 240
+    fg = find_foreground(img, VisionSettings())
+    blobs = [b for b in find_outlines(fg, VisionSettings(), min_px=50, max_px=180)
+             if b.centroid[0] > 200]
+    assert len(blobs) == 1
+    assert blobs[0].centroid == pytest.approx((300, 240), abs=1.0)
+    assert blobs[0].area == pytest.approx(np.pi * 18 ** 2, rel=0.1)

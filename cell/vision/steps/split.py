@@ -15,7 +15,8 @@ best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
 3. **Colours**: two finishes that touch (a red bracket on a grey one) are two clusters
    in Lab (2-means, ``cv2.kmeans``, L weighted 0.5), taken only when the clusters are
    far apart (Fisher ratio >= 4) and each holds a tenth of the pixels; each cluster's
-   largest region after a 3x3 opening seeds a piece. Tried last, on the blob itself.
+   regions after a 3x3 opening, those at least a quarter of its largest, seed a piece
+   (a streak of light can break a part's face in two). Tried last, on the blob itself.
 
 A piece that fits no kind and is large enough to hold two parts is cut again (chains of
 up to three parts); the whole search tries at most 40 cuts per blob and keeps the best.
@@ -53,6 +54,7 @@ _MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest
 _BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better
 _MIN_NOTCH_PX = 2.0  # a convexity defect at least this deep (px) may be a contact
 _CORE_LEVELS = (0.5, 0.65, 0.8)
+_SEED_SHARE = 0.25  # a colour's regions this large against its largest seed a piece too
 _SQUARE = np.ones((3, 3), np.uint8)  # fractions of the largest depth that make the cores
 
 
@@ -258,8 +260,9 @@ def _nearest(mask: np.ndarray, seeds: np.ndarray) -> list[tuple[np.ndarray, None
 
 
 def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:
-    """Seeds of the two finishes of a blob (uint8 mask, the two largest regions of the
-    two colour clusters), or None when its colours do not form two clusters."""
+    """Seeds of the two finishes of a blob (uint8, 1 and 2 on each colour cluster's regions
+    at least ``_SEED_SHARE`` of its largest, 0 elsewhere), or None when its colours do not
+    form two clusters."""
     mask = pixels.mask
     h, w = mask.shape
     patch = image[pixels.y0:pixels.y0 + h, pixels.x0:pixels.x0 + w]
@@ -287,7 +290,9 @@ def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:
         n, regions, stats, _ = cv2.connectedComponentsWithStats(cluster)
         if n < 2:
             return None
-        seeds[regions == 1 + np.argmax(stats[1:, cv2.CC_STAT_AREA])] = k + 1
+        area = stats[1:, cv2.CC_STAT_AREA]
+        keep = np.flatnonzero(area >= _SEED_SHARE * area.max()) + 1
+        seeds[np.isin(regions, keep)] = k + 1
     return seeds
 
 

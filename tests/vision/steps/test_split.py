@@ -72,3 +72,22 @@ def test_a_third_part_touching_at_a_corner_only_is_kept():
         cv2.circle(img, (x0 + side // 2, y1 - side // 2), drawn.px(4), drawn.BELT, -1)
     _, pieces, _ = _pieces(three)
     assert sorted(p.fit.kind for p in pieces) == ["disc", "disc", "square_nut"]
+
+
+def test_every_sizeable_region_of_a_colour_seeds_the_colour_cut():
+    """A black part whose face a streak of the other colour (the belt's light on a bevel)
+    breaks in two, beside a blue one: both black regions seed the black piece, not only
+    the larger, so the smaller does not go to the blue piece it lies nearer to; small blue
+    regions seed nothing."""
+    from cell.vision.steps.material import PartPixels
+    from cell.vision.steps.split import _colour_seeds
+
+    img = np.zeros((60, 80, 3), np.uint8)
+    img[:, :40] = (30, 60, 200)  # blue
+    img[:, 40:] = (25, 25, 28)  # black, broken at column 52 by a blue streak
+    img[:, 51:54] = (30, 60, 200)
+    img[28:31, 65:68] = (30, 60, 200)  # a blue speck in the black
+    seeds = _colour_seeds(PartPixels(0, 0, np.full((60, 80), 255, np.uint8)), img)
+    black = seeds[30, 70]
+    assert seeds[30, 46] == black != seeds[30, 20] > 0  # both black regions, one label
+    assert seeds[29, 66] in (0, black) and seeds[30, 52] in (0, black)  # no blue seeds

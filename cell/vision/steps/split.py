@@ -203,7 +203,7 @@ def _candidates(pixels: PartPixels, search: _Search, depth: int
 def _notch_cuts(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Straight cuts (a, b) (px, in the mask's box) from the deepest point of each deep
     convexity defect to another such point, or to the nearest point of the outline across
-    the blob (a contact with a notch on one side only), shortest first; each runs inside
+    the blob (a contact with a notch on one side only), shortest first, each once; each runs inside
     the blob (its midpoint does)."""
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     c = max(contours, key=len)
@@ -227,7 +227,8 @@ def _notch_cuts(mask: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         dist = np.where(apart > len(pts) // 8, np.linalg.norm(pts - pts[fi], axis=1), np.inf)
         cuts.append((pts[fi], pts[int(np.argmin(dist))]))
     inside = [(a, b) for a, b in cuts if mask[int(round((a[1] + b[1]) / 2)), int(round((a[0] + b[0]) / 2))]]
-    return sorted(inside, key=lambda ab: float(np.linalg.norm(ab[0] - ab[1])))
+    unique = {frozenset((tuple(a), tuple(b))): (a, b) for a, b in inside}  # (a-b is b-a)
+    return sorted(unique.values(), key=lambda ab: float(np.linalg.norm(ab[0] - ab[1])))
 
 
 def _cut_along(mask: np.ndarray, a: np.ndarray, b: np.ndarray

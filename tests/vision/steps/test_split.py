@@ -91,3 +91,16 @@ def test_every_sizeable_region_of_a_colour_seeds_the_colour_cut():
     black = seeds[30, 70]
     assert seeds[30, 46] == black != seeds[30, 20] > 0  # both black regions, one label
     assert seeds[29, 66] in (0, black) and seeds[30, 52] in (0, black)  # no blue seeds
+
+
+def test_each_straight_cut_is_tried_once():
+    """Two notches facing each other across a waist: the cut between them is also each
+    one's nearest point across; it is one candidate, not three (each costs a fit)."""
+    from cell.vision.steps.split import _notch_cuts
+
+    mask = np.zeros((40, 80), np.uint8)
+    cv2.rectangle(mask, (10, 10), (70, 30), 255, -1)
+    cv2.fillPoly(mask, [np.array([[30, 10], [50, 10], [40, 17]], np.int32)], 0)
+    cv2.fillPoly(mask, [np.array([[30, 30], [50, 30], [40, 23]], np.int32)], 0)
+    cuts = [sorted((tuple(a), tuple(b))) for a, b in _notch_cuts(mask)]
+    assert cuts == [[(40.0, 18.0), (40.0, 22.0)]]

@@ -316,3 +316,17 @@ def test_a_part_touching_one_the_border_cuts_is_found():
     assert (whole.kind, whole.partial) == ("disc", False)
     assert whole.centroid == pytest.approx(drawn.mm(right - 30, 0), abs=1.5)
     assert (cut.kind, cut.partial, cut.position) == ("unknown", True, None)
+
+
+def test_a_bolt_whose_head_reads_narrow_is_still_a_bolt():
+    """In dim light a bolt's dark head flanks fall below the threshold: its outline is
+    narrower than any part's (8.5 mm), but it fits the bolt kind, so it is no strip."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    cv2.rectangle(img, drawn.mm(-20, 3), drawn.mm(20, -3), (150, 150, 150), -1)  # shank
+    cv2.rectangle(img, drawn.mm(-24, 4), drawn.mm(-20, -4), (150, 150, 150), -1)  # head, 8 mm
+    (det,) = PartDetector().detect(img, drawn.camera())
+    assert det.kind == "bolt"

@@ -16,7 +16,7 @@ module of :mod:`cell.vision.steps`, in the order they run:
 
 A part the image border cuts is reported ``partial``, with kind ``unknown`` and no
 position (the parts touching it are cut off it, as any touching parts); a blob whose
-centre lies off the belt (``vision.belt_y``) is no part.
+centre lies off the belt (``vision.belt_y``), or within 4 mm of its edges, is no part.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ _LONGEST = max(k.length for k in KINDS.values())  # m: the longest part
 _LONGEST_GROUP = 4 * _LONGEST  # m: a longer blob holds a rail (four discs in a row: 120 mm)
 _WELL = 9.0  # a blob whose kind scores under this is one part: no cut is tried
 _NEAR_A_KIND = 18.0  # a blob scoring worse than this for every kind is no part
+_EDGE = 0.004  # m: a part's centre lies this far inside the belt's edges (half the narrowest is 5.5 mm)
 _NARROWEST = 0.0095  # m: a blob this narrow that fits no kind is a strip (the narrowest is 11 mm)
 
 
@@ -137,11 +138,12 @@ class PartDetector:
     def _parts(self, blob: Outline, fg: Foreground, plane: TablePlane) -> list[Piece]:
         """The part(s) in a blob: itself when a kind fits it well; its pieces when it is
         touching parts; none when it is not a part (its centre off the belt, see
-        ``vision.belt_y``). A blob at the image border: see :meth:`_at_border`."""
+        ``vision.belt_y``, or within ``_EDGE`` of its edges). A blob at the image border:
+        see :meth:`_at_border`."""
         st = self.settings
         (_, y), = plane.points(np.array([blob.centroid]), 0.0)
-        if not st.belt_y[0] <= y <= st.belt_y[1]:
-            return []  # a shadow on the table, a rail: nothing lies there
+        if not st.belt_y[0] + _EDGE <= y <= st.belt_y[1] - _EDGE:
+            return []  # a shadow on the table, a rail, light along the edge: no part's centre
         fit = fit_kind(blob, plane, min_confidence=st.min_kind_confidence)
         if blob.partial:
             return self._at_border(blob, fit, fg, plane)

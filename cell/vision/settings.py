@@ -83,7 +83,8 @@ class VisionSettings:
     belt_y: tuple[float, ...] = setting(
         (0.37, 0.53), lo=-10.0, hi=10.0, length=2,
         doc="the belt's extent across it, as world y (m, low then high): a blob whose centre "
-        "on the table plane lies outside is no part (a shadow on the table, a rail)",
+        "on the table plane lies outside, or within 4 mm of an edge, is no part (a shadow on "
+        "the table, a rail, light along the edge)",
     )
     belt_rgb: tuple[float, ...] = setting(
         (0.22, 0.30, 0.42), lo=0.0, hi=1.0, length=3,

@@ -330,3 +330,22 @@ def test_a_bolt_whose_head_reads_narrow_is_still_a_bolt():
     cv2.rectangle(img, drawn.mm(-24, 4), drawn.mm(-20, -4), (150, 150, 150), -1)  # head, 8 mm
     (det,) = PartDetector().detect(img, drawn.camera())
     assert det.kind == "bolt"
+
+
+def test_a_bolt_shaped_strip_along_the_belts_edge_is_no_part():
+    """Light along the belt's edge can leave a strip the shape of a bolt lying there, its
+    centre 2.5 mm inside the edge: no part lies that close (half the narrowest part is
+    5.5 mm), so it is none; a bolt 10 mm inside is found."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    edge = (VisionSettings().belt_y[1] - drawn.BELT_Y) * 1e3  # mm from the image centre
+    found = []
+    for inside in (2.5, 10.0):
+        img = drawn.frame()
+        y = edge - inside
+        cv2.rectangle(img, drawn.mm(-20, y + 3), drawn.mm(20, y - 3), (150, 150, 150), -1)
+        cv2.rectangle(img, drawn.mm(-24, y + 5.5), drawn.mm(-20, y - 5.5), (150, 150, 150), -1)
+        found.append([d.kind for d in PartDetector().detect(img, drawn.camera())])
+    assert found == [[], ["bolt"]]

@@ -57,6 +57,7 @@ _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box
 _GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
 _SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
 _WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.2  # weak grain: see _grain_evidence
+_VISIBLE = 4.0  # grain visibility (standard errors) at which its absence counts against metal
 _GRAIN_MEAN = 0.9  # a metal grain's mean brightness factor (texture mean over texels)
 _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == "metal" else 1.0)
                            for m in MATERIALS.values()])
@@ -188,7 +189,7 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
     within 0.05..0.95 (from 0.01 for a colour no metal has); grain then multiplies the
     odds: clear grain (``grain >= grain_metal`` with ``grain_z >= grain_z_min``) on a
     surface bright enough to show it counts 50:1 for metal; grain below 0.45 *
-    ``grain_metal`` where a metal's grain would be clearly visible (``grain_visibility`` >= 6)
+    ``grain_metal`` where a metal's grain would be clearly visible (``grain_visibility`` >= 4)
     counts 1:50 against. Back-lit: ``unknown``, 0."""
     if backlit:
         return _UNKNOWN
@@ -321,7 +322,7 @@ def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_
     evidence = np.where(lit, _grain_evidence(g, z, even, grain_metal=grain_metal,
                                              grain_z_min=grain_z_min), 0.0)
     odds = prior / (1 - prior) * np.where(evidence > 0.0, _GRAIN_ODDS**evidence, 1.0)
-    odds *= np.where((evidence <= 0.0) & lit & (g < 0.45 * grain_metal) & (vis >= 6.0),
+    odds *= np.where((evidence <= 0.0) & lit & (g < 0.45 * grain_metal) & (vis >= _VISIBLE),
                      1.0 / _GRAIN_ODDS, 1.0)
     return [("metal", q) if q >= 0.5 else ("plastic", 1 - q)
             for q in (odds / (1 + odds)).tolist()]

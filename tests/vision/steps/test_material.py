@@ -117,10 +117,10 @@ def test_bad_input_names_the_argument():
         material_features(patch, np.zeros_like(mask), belt, belt_rgb=BELT)
 
 
-def _features(grain, grain_z, *, albedo=(0.9, 0.9, 0.88), even=0.25, pixels=400):
+def _features(grain, grain_z, *, albedo=(0.9, 0.9, 0.88), even=0.25, pixels=400, visibility=7.0):
     return MaterialFeatures(mean_rgb=np.zeros(3), albedo=np.array(albedo), grain=grain,
-                            grain_z=grain_z, clipped=0.0, pixels=pixels, grain_visibility=7.0,
-                            grain_pixels=int(even * pixels))
+                            grain_z=grain_z, clipped=0.0, pixels=pixels,
+                            grain_visibility=visibility, grain_pixels=int(even * pixels))
 
 
 def test_grain_evidence_does_not_jump_at_the_threshold():
@@ -168,6 +168,17 @@ def test_grain_alone_does_not_make_a_colour_no_metal_has_metal():
     assert grey[0] == "metal"
     brass = np.array(MATERIALS["brass"].rgba[:3]) * 0.9  # a metal's own hue keeps the 0.05 floor
     assert classify_material(_features(0.1, 10.0, albedo=brass), backlit=False, **OPTS)[0] == "metal"
+
+
+def test_no_grain_where_it_would_show_says_plastic_against_a_metals_albedo():
+    """Under raking light a grey plastic nut reads 1.3-1.5x brighter: its albedo is
+    steel's. A metal's grain would stand 4.4 standard errors above the noise there, and it
+    shows none: plastic. Where the grain could not show (visibility 3), the albedo decides."""
+    steel_like = (0.62, 0.61, 0.63)
+    no_grain = _features(0.0, -0.5, albedo=steel_like, visibility=4.4)
+    assert classify_material(no_grain, backlit=False, **OPTS)[0] == "plastic"
+    unseen = _features(0.0, -0.5, albedo=steel_like, visibility=3.0)
+    assert classify_material(unseen, backlit=False, **OPTS)[0] == "metal"
 
 
 # noise_sigma

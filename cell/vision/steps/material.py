@@ -56,7 +56,7 @@ _SUPPORT = 2  # px the filters (3x3 mean, then 3x3 Sobel) read around a pixel
 _HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
 _SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
-_WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.2  # weak grain: see _grain_evidence
+_WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.18  # weak grain: see _grain_evidence
 _VISIBLE = 4.0  # grain visibility (standard errors) at which its absence counts against metal
 _GRAIN_MEAN = 0.9  # a metal grain's mean brightness factor (texture mean over texels)
 _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == "metal" else 1.0)

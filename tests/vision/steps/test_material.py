@@ -141,6 +141,8 @@ def test_weak_grain_counts_only_with_strong_evidence_on_an_evenly_lit_surface():
     assert classify_material(weak, backlit=False, **OPTS)[0] == "metal"
     shaded = _features(grain, z_min + 1.0, even=0.15)
     assert classify_material(shaded, backlit=False, **OPTS)[0] == "plastic"
+    raking = _features(grain, z_min + 1.0, even=0.19)  # a flat nut under raking light
+    assert classify_material(raking, backlit=False, **OPTS)[0] == "metal"
     faint = _features(grain, z_min)  # weak grain needs more than grain_z_min
     assert classify_material(faint, backlit=False, **OPTS)[0] == "plastic"
 

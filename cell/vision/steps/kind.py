@@ -49,6 +49,7 @@ _MAX_HOLE_Z2 = 9.0  # a hole fraction off by more than 3 sigma: not that kind
 _MID = 0.0025  # m: the edge height of the classifying footprint
 _HOPELESS = 30.0  # a mid-height score above this for every kind: no kind near, not refined
 _REFINE_GAP = 4.0  # a runner-up this much worse at mid height is not refined
+_SHANK = 0.006  # m: a bolt's shank diameter (M6)
 
 
 def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
@@ -145,7 +146,7 @@ def classify_kind(scores: np.ndarray, hole_z2: float = 0.0, *,
 def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.ndarray | float]:
     """Heights (m) of a kind's silhouette edges facing the nadir and away from it; a
     bolt's per outline point, from its mid-height footprint: its head (the wider end)
-    stands from the belt to its height, its lying shank's silhouette from 1.5 to 8.5 mm."""
+    stands from the belt to its height, its lying shank from the belt to its diameter."""
     h = KINDS[kind].height
     if kind != "bolt":
         return 0.0, h
@@ -154,7 +155,7 @@ def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.nda
     s, t = rel @ axis, np.abs(rel @ np.array([-axis[1], axis[0]]))
     wide_max, wide_min = t[s > s.max() - 0.004].max(), t[s < s.min() + 0.004].max()
     head = s > s.max() - 0.005 if wide_max > wide_min else s < s.min() + 0.005
-    return np.where(head, 0.0, 0.0015), np.where(head, h, 0.0085)
+    return np.zeros(len(head)), np.where(head, h, _SHANK)
 
 
 def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -> KindFit:

@@ -318,20 +318,6 @@ def test_a_part_touching_one_the_border_cuts_is_found():
     assert (cut.kind, cut.partial, cut.position) == ("unknown", True, None)
 
 
-def test_a_bolt_whose_head_reads_narrow_is_still_a_bolt():
-    """In dim light a bolt's dark head flanks fall below the threshold: its outline is
-    narrower than any part's (8.5 mm), but it fits the bolt kind, so it is no strip."""
-    import cv2
-
-    from tests.vision.steps import drawn
-
-    img = drawn.frame()
-    cv2.rectangle(img, drawn.mm(-20, 3), drawn.mm(20, -3), (150, 150, 150), -1)  # shank
-    cv2.rectangle(img, drawn.mm(-24, 4), drawn.mm(-20, -4), (150, 150, 150), -1)  # head, 8 mm
-    (det,) = PartDetector().detect(img, drawn.camera())
-    assert det.kind == "bolt"
-
-
 def test_a_bolt_shaped_strip_along_the_belts_edge_is_no_part():
     """Light along the belt's edge can leave a strip the shape of a bolt lying there, its
     centre 2.5 mm inside the edge: no part lies that close (half the narrowest part is

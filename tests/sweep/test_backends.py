@@ -16,9 +16,8 @@ from cell.sweep.runner import SweepOptions, run_plan
 from cell.sweep.spec import load_sweep
 from tests.sweep.helpers import ROOT, TINY, rows_without_timings, write_tiny
 
-MANY = TINY.replace("seeds = [1, 2]", "seeds = {from = 1, to = 16}")  # 96 runs, 32 scenes
-# (Ctrl-C: long enough that it cannot finish before the test, even starved of the CPU by
-# other work on a busy machine, sees its first rows and interrupts it)
+# (Ctrl-C, a killed worker: long enough that it cannot finish before the test, even starved
+# of the CPU by other work on a busy machine, sees its first rows and interrupts it)
 LONG = TINY.replace("seeds = [1, 2]", "seeds = {from = 1, to = 64}")  # 384 runs
 
 
@@ -105,7 +104,7 @@ def _worker_pids(pid: int) -> list[int]:
 
 
 def test_a_killed_worker_loses_nothing(tmp_path):
-    sweep, out = write_tiny(tmp_path, MANY), tmp_path / "out"
+    sweep, out = write_tiny(tmp_path, LONG), tmp_path / "out"
     plan = plan_sweep(load_sweep(sweep))
     proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2")
     _wait_rows(out / "results.csv", 2, proc)

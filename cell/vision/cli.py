@@ -10,8 +10,8 @@ one), then ``--set key=value`` overrides: ``vision.segmentation=otsu``, or simpl
 ``segmentation=otsu`` (a key of the vision section needs no prefix).
 
 Parts are looked for on the belt, in the camera file's world frame (the cell's): on the
-plane ``vision.plane_z`` high, between world y = ``vision.belt_y``; a camera of another
-set-up needs both set.
+plane ``vision.plane_z`` high, between world y = ``vision.belt_y`` (a part's centre at
+least 4 mm inside); a camera of another set-up needs both set.
 """
 
 from __future__ import annotations
@@ -50,8 +50,9 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="cell detect", description=__doc__.splitlines()[0],
         epilog="Parts are looked for on the belt, in the camera file's world frame (the cell's): "
-        "on the plane vision.plane_z high, between world y = vision.belt_y; a camera of another "
-        "set-up needs both set (--set plane_z=... --set belt_y=[low,high]).")
+        "on the plane vision.plane_z high, between world y = vision.belt_y (a part's centre at least "
+        "4 mm inside); a camera of another set-up needs both set (--set plane_z=... --set "
+        "belt_y=[low,high]).")
     p.add_argument("image", help="image file (PNG, JPEG, ...), read as RGB; its size must be the "
                    f"camera's, at most {MAX_PIXELS:,} pixels")
     p.add_argument("--camera", required=True,

@@ -53,9 +53,9 @@ _FEW = 4  # cuts tried on a piece that fits its kind but may hold another (_nest
 _MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest is 11 mm)
 _BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better
 _MIN_NOTCH_PX = 2.0  # a convexity defect at least this deep (px) may be a contact
-_CORE_LEVELS = (0.5, 0.65, 0.8)
+_CORE_LEVELS = (0.5, 0.65, 0.8)  # fractions of the largest depth that make the cores
 _SEED_SHARE = 0.25  # a colour's regions this large against its largest seed a piece too
-_SQUARE = np.ones((3, 3), np.uint8)  # fractions of the largest depth that make the cores
+_SQUARE = np.ones((3, 3), np.uint8)
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,7 @@ def nominal_area(kind: PartKind) -> float:
              "washer": math.pi * (kind.length / 2) ** 2,
              "disc": math.pi * (kind.length / 2) ** 2,
              "l_bracket": kind.length * leg + (kind.width - leg) * leg,
-             "bolt": 0.040 * 0.006 + 0.004 * kind.width,  # shank 40 x 6 mm, head 4 mm long
+             "bolt": 0.040 * _SHANK + 0.004 * kind.width,  # shank 40 mm long, head 4 mm
              }.get(kind.name, kind.length * kind.width)
     return outer - math.pi * (kind.hole / 2) ** 2
 

@@ -13,10 +13,22 @@ The yaw is measured modulo the kind's rotational symmetry n
   axial data). The mean is then re-estimated twice with each chord's weight also scaled by
   a von Mises kernel ``exp(kappa * (cos(n * psi_k - arg m) - 1))``, an iteratively
   reweighted (M-estimator) mean: chords across corners and along ragged stretches of a
-  noisy outline count less (kappa: hex nut 1, square nut 2). The outline's last ``cut``
-  points are a straight cut that separated the part from one it touched, not an edge: the
-  chords over them and over ``_CUT_GUARD`` points either side (the contact's notch) are
-  left out.
+  noisy outline count less (kappa: hex nut 1, square nut 2). That direction is then refined
+  by fitting the nut's shape to the outline points themselves: a convex n-gon whose flats
+  face ``phi + 2*pi*k/n``, each flat at its own distance ``a_k`` from the centroid, each
+  point's residual its signed distance beyond the polygon's nearest flat line
+  (``max_k (n_k . q - a_k)``), fitted by robust least squares (``scipy.optimize.least_squares``,
+  Huber loss at 0.2 mm: the outline's noise; farther points, a bite or a bump, count
+  linearly; Huber, *Robust Statistics*, 1981). A chord spans 5 points of one flat, the fit
+  all of them: on outlines jittered by 0.1 mm the median error falls from 0.17 to 0.15 deg
+  (hex nut; square 0.14 to 0.10), and a bite out of one flat (a ramp 0.8 mm deep, the
+  neighbour's notch) turns it by 0.02 deg, not 0.46. A flat moved parallel as a whole (a
+  dilated outline, a shadow's remnant) does not pull the angle, its offset being free; a
+  flat broken into two offsets does (0.4 mm over half a flat: 0.66 deg, the chords 0.17).
+  On the bench's rendered frames the fit brings each preset's yaw p95 down by about a
+  tenth (``cell bench vision``). The outline's last ``cut`` points are a straight cut that
+  separated the part from one it touched, not an edge: those points and ``_CUT_GUARD``
+  points either side (the contact's notch) are left out of both, chords and fit.
 * **L bracket** (n = 1; yaw 0: outer corner at -x, -y, long leg along +x, as
   ``cell.sim.parts`` builds it): all its edges run at multiples of 90 degrees. The
   minimum-area rectangle's long side follows a clean outline closely but turns with a bite
@@ -45,6 +57,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from cell.catalogue import KINDS
 from cell.errors import VisionError
@@ -56,6 +69,8 @@ _ITERATIONS = 2  # von Mises reweightings of the harmonic mean
 _KAPPA = {"hex_nut": 1.0, "square_nut": 2.0}  # the nuts' von Mises concentration
 _BRACKET_KAPPA = 2.0
 _CUT_GUARD = 6  # outline points either side of a cut left out of the nuts' flats
+_FLAT_NOISE = 0.2  # mm: the Huber scale of the nuts' flat fit (an outline point's noise)
+_FLAT_TOL = 1e-4  # the fit's relative tolerances: 0.005 deg, 1 um (9 -> 6 evaluations)
 _L_TURN = math.radians(2.0)  # bracket: chords vs rectangle disagreement that picks the chords
 _BOLT_STRIP = 0.004  # m: the strip at each end of a bolt whose width tells the head
 _BOLT_END_OFFSET = 0.0014  # m: body origin from the middle of the bolt's ends, towards the head
@@ -117,10 +132,10 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: int) -
     n = KINDS[kind].symmetry if kind in KINDS else 0
     if n == 0:
         return 0.0
-    if kind == "hex_nut":
-        yaw = _flat_angle(p, 6, kappa=_KAPPA[kind], skip=_cut_chords(len(p), cut)) - math.pi / 6
-    elif kind == "square_nut":
-        yaw = _flat_angle(p, 4, kappa=_KAPPA[kind], skip=_cut_chords(len(p), cut))
+    if kind in _KAPPA:  # the nuts: their flats' normals; a hex nut's yaw is a corner's
+        first = _flat_angle(p, n, kappa=_KAPPA[kind], skip=_cut_chords(len(p), cut))
+        yaw = _fitted_flats(p, c, n, first, _off_cut(len(p), cut))
+        yaw -= math.pi / 6 if kind == "hex_nut" else 0.0
     elif kind == "l_bracket":
         yaw = _bracket_yaw(p, c, rect_angle)
     elif kind == "bolt":
@@ -141,6 +156,42 @@ def _cut_chords(m: int, cut: int) -> np.ndarray | None:
     skip = min(cut + 2 * _CUT_GUARD, m // 2)
     r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m  # chord start, counted from the guard's
     return (r < skip) | (r >= m - _STEP)
+
+
+def _off_cut(m: int, cut: int) -> np.ndarray:
+    """Mask (m,) of the outline points off a cut: not among the last ``cut`` points nor
+    within ``_CUT_GUARD`` points either side of them (at most half the outline is left out)."""
+    r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m  # counted from the guard's start
+    return r >= (min(cut + 2 * _CUT_GUARD, m // 2) if cut else 0)
+
+
+def _fitted_flats(p: np.ndarray, c: np.ndarray, n: int, first: float, keep: np.ndarray) -> float:
+    """Direction (rad) of the flats' normals of an n-fold outline ``p`` (N, 2, metres) around
+    its centroid ``c``, refined from ``first``: the n-gon with free flat offsets fitted to
+    the points ``keep`` by robust least squares (module docstring). ``first`` when fewer
+    than two points per flat are kept."""
+    q = (p[keep] - c) * 1e3  # mm, from the centroid
+    if len(q) < 2 * n:
+        return first
+    turns = np.arange(n) * (2 * math.pi / n)
+
+    def beyond(x: np.ndarray) -> np.ndarray:  # (N, n): how far each point lies beyond each flat
+        a = x[0] + turns
+        return q[:, :1] * np.cos(a) + q[:, 1:] * np.sin(a) - x[1:]
+
+    def jacobian(x: np.ndarray) -> np.ndarray:  # of beyond(x).max(axis=1): its flat's row
+        k = beyond(x).argmax(axis=1)
+        a = x[0] + turns[k]
+        jac = np.zeros((len(q), n + 1))
+        jac[:, 0] = q[:, 1] * np.cos(a) - q[:, 0] * np.sin(a)
+        jac[np.arange(len(q)), 1 + k] = -1.0
+        return jac
+
+    start = np.concatenate([[first], np.zeros(n)])
+    start[1:] = np.median(beyond(start).max(axis=1))  # every flat at the median distance
+    fit = least_squares(lambda x: beyond(x).max(axis=1), start, jac=jacobian, loss="huber",
+                        f_scale=_FLAT_NOISE, xtol=_FLAT_TOL, ftol=_FLAT_TOL)
+    return float(fit.x[0])
 
 
 def _flat_angle(p: np.ndarray, n: int, *, kappa: float, skip: np.ndarray | None = None) -> float:

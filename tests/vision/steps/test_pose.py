@@ -144,6 +144,32 @@ def test_noise_on_a_nuts_outline_keeps_its_yaw_within_1_5_degrees(kind, yaw, see
     assert math.degrees(_err(got, yaw, period)) < 1.5
 
 
+def _square_with_a_bite() -> np.ndarray:
+    """The square nut at yaw 0 with a ramp on its +y flat, as a neighbour's notch leaves
+    it: 0 at x = -2 mm rising to 0.8 mm at x = +2 mm, then back to the flat."""
+    p = _dense(0.0065 * np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], float), 48)
+    on_flat, x = np.abs(p[:, 1] - 0.0065) < 1e-12, p[:, 0]
+    p[on_flat, 1] += (np.clip((x + 0.002) / 0.004, 0.0, 1.0) * 0.0008 * (x < 0.002))[on_flat]
+    return p
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.4, 1.3])
+def test_a_bite_out_of_one_flat_does_not_turn_a_nut(yaw):
+    """The fit of the flats (Huber loss) takes the ramp's points as outliers: 0.02 deg off;
+    the chords' harmonic mean alone was 0.46 deg off."""
+    got = kind_yaw(_turn(_square_with_a_bite(), yaw), centroid=tuple(AT), rect_angle=0.0,
+                   kind="square_nut")
+    assert math.degrees(_err(got, yaw, math.pi / 2)) < 0.1
+
+
+def test_a_nut_with_too_few_points_off_its_cut_keeps_the_chords_yaw():
+    """Fewer than two points per flat off the cut: no fit, the chords' angle stands (an
+    exact square traced with 2 points per side, its last 4 a cut)."""
+    p = _turn(_dense(0.0065 * np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], float), 2), 0.3)
+    got = kind_yaw(p, centroid=tuple(AT), rect_angle=0.0, kind="square_nut", cut=4)
+    assert 0 <= got < math.pi / 2 and math.isfinite(got)
+
+
 @pytest.mark.parametrize("kind", ["hex_nut", "square_nut"])
 def test_a_nuts_cut_points_do_not_count(kind):
     """Whatever the outline's last ``cut`` points are, the yaw is the same."""

@@ -52,34 +52,37 @@ _REFINE_GAP = 4.0  # a runner-up this much worse at mid height is not refined
 _SHANK = 0.006  # m: a bolt's shank diameter (M6)
 
 
+_LEG = 0.012  # m: an L bracket's legs are 12 mm wide
+
+
+def _outline_area(kind: PartKind) -> float:
+    """The area inside a kind's outline seen from above, its hole included (m^2)."""
+    return {"hex_nut": 2 * math.sqrt(3) * (kind.width / 2) ** 2,
+            "washer": math.pi * (kind.length / 2) ** 2,
+            "disc": math.pi * (kind.length / 2) ** 2,
+            "l_bracket": kind.length * _LEG + (kind.width - _LEG) * _LEG,
+            "bolt": 0.040 * _SHANK + 0.004 * kind.width,  # shank 40 mm long, head 4 mm
+            }.get(kind.name, kind.length * kind.width)
+
+
 def nominal_descriptors(kind: PartKind) -> tuple[float, float, float, float]:
     """(length, width, hole fraction, solidity) of a kind's nominal footprint from above."""
     if kind.name == "bolt":
         # a 6 mm shank 40 mm long and a hex head 10-11.5 mm wide as it rolls; the shank
         # outlines thinner than 6 mm (its lower flanks are dark): solidity 0.64 measured
         return kind.length, 0.011, 0.0, 0.64
-    outer = {"hex_nut": 2 * math.sqrt(3) * (kind.width / 2) ** 2,
-             "washer": math.pi * (kind.length / 2) ** 2,
-             "disc": math.pi * (kind.length / 2) ** 2}.get(kind.name, kind.length * kind.width)
+    outer = _outline_area(kind)
     solidity = 1.0
-    if kind.name == "l_bracket":  # legs 12 mm wide; the hull cuts the inner corner off
-        leg = 0.012
-        area = kind.length * leg + (kind.width - leg) * leg
-        solidity = area / (kind.length * kind.width - 0.5 * (kind.length - leg) * (kind.width - leg))
+    if kind.name == "l_bracket":  # the hull cuts the inner corner off
+        solidity = outer / (kind.length * kind.width
+                            - 0.5 * (kind.length - _LEG) * (kind.width - _LEG))
     hole = math.pi * (kind.hole / 2) ** 2
     return kind.length, kind.width, hole / outer, solidity
 
 
 def nominal_area(kind: PartKind) -> float:
     """A kind's net area seen from above (m^2): its outline less its hole."""
-    leg = 0.012  # an L bracket's legs are 12 mm wide
-    outer = {"hex_nut": 2 * math.sqrt(3) * (kind.width / 2) ** 2,
-             "washer": math.pi * (kind.length / 2) ** 2,
-             "disc": math.pi * (kind.length / 2) ** 2,
-             "l_bracket": kind.length * leg + (kind.width - leg) * leg,
-             "bolt": 0.040 * _SHANK + 0.004 * kind.width,  # shank 40 mm long, head 4 mm
-             }.get(kind.name, kind.length * kind.width)
-    return outer - math.pi * (kind.hole / 2) ** 2
+    return _outline_area(kind) - math.pi * (kind.hole / 2) ** 2
 
 
 KIND_NAMES = tuple(KINDS)
@@ -171,8 +174,9 @@ def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -
         if rough[k] > rough[order[0]] + _REFINE_GAP:
             break
         footprints[k] = fp = plane.footprint(rays, _edge_heights(KIND_NAMES[k], mid))
-        if _z2(fp)[k].sum() < scores[k]:  # (else mid height fits it better: keep its score)
-            z2[k] = _z2(fp)[k]
+        refined = _z2(fp)[k]
+        if refined.sum() < scores[k]:  # (else mid height fits it better: keep its score)
+            z2[k] = refined
             scores[k] = z2[k].sum()
     best = int(np.argmin(scores))
     kind, confidence = classify_kind(scores, float(z2[best, 2]), min_confidence=min_confidence)

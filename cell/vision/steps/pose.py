@@ -148,22 +148,27 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: int) -
     return 0.0 if yaw >= period else yaw  # (a tiny negative angle rounds up to the period)
 
 
-def _cut_chords(m: int, cut: int) -> np.ndarray | None:
-    """Mask (m,) of the chords ``p[k] -> p[k + _STEP]`` that touch the outline's last ``cut``
-    points or ``_CUT_GUARD`` points either side of them (at most half the outline); None
-    when there is no cut."""
-    if cut == 0:
-        return None
-    skip = min(cut + 2 * _CUT_GUARD, m // 2)
-    r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m  # chord start, counted from the guard's
-    return (r < skip) | (r >= m - _STEP)
+def _cut_run(m: int, cut: int) -> tuple[np.ndarray, int]:
+    """(each of the m outline points' place counted from the start of the run left out for a
+    cut, that run's length): the last ``cut`` points and ``_CUT_GUARD`` points either side,
+    at most half the outline; no run without a cut."""
+    r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m
+    return r, (min(cut + 2 * _CUT_GUARD, m // 2) if cut else 0)
 
 
 def _off_cut(m: int, cut: int) -> np.ndarray:
-    """Mask (m,) of the outline points off a cut: not among the last ``cut`` points nor
-    within ``_CUT_GUARD`` points either side of them (at most half the outline is left out)."""
-    r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m  # counted from the guard's start
-    return r >= (min(cut + 2 * _CUT_GUARD, m // 2) if cut else 0)
+    """Mask (m,) of the outline points off a cut (:func:`_cut_run`)."""
+    r, run = _cut_run(m, cut)
+    return r >= run
+
+
+def _cut_chords(m: int, cut: int) -> np.ndarray | None:
+    """Mask (m,) of the chords ``p[k] -> p[k + _STEP]`` that start in the run left out for a
+    cut (:func:`_cut_run`) or reach into it; None when there is no cut."""
+    if cut == 0:
+        return None
+    r, run = _cut_run(m, cut)
+    return (r < run) | (r >= m - _STEP)
 
 
 def _fitted_flats(p: np.ndarray, c: np.ndarray, n: int, first: float, keep: np.ndarray) -> float:

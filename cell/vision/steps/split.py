@@ -163,8 +163,7 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
                 return []
             out += sub
             continue
-        blob, cut = _cut_last(blob, segment, (pixels.x0, pixels.y0))
-        out.append(Piece(blob, fit, cut))
+        out.append(_cut_last(Piece(blob, fit), segment, (pixels.x0, pixels.y0)))
     return out
 
 
@@ -297,20 +296,25 @@ def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:
     return seeds
 
 
-def _cut_last(blob: Outline, segment: tuple | None, origin: tuple[int, int]
-              ) -> tuple[Outline, int]:
-    """The blob with its outline's points on the cut ``segment`` (within 1.5 px; in the
-    box whose corner is ``origin``) moved to the end, and how many they are."""
+def _cut_last(piece: Piece, segment: tuple | None, origin: tuple[int, int]) -> Piece:
+    """The piece with its outline's points on the cut ``segment`` (within 1.5 px; in the
+    box whose corner is ``origin``) moved to the end, in its blob's ring and its
+    footprint's outline alike (the pose step leaves the last ``cut`` points of the
+    footprint out), and ``cut`` how many they are."""
     if segment is None:
-        return blob, 0
+        return piece
+    blob = piece.blob
     p = blob.outer.points - origin
     a, b = segment
     ab = b - a
     t = np.clip(((p - a) @ ab) / max(float(ab @ ab), 1e-9), 0, 1)
     on = np.linalg.norm(p - (a + t[:, None] * ab), axis=1) < 1.5
     if not on.any() or on.all():
-        return blob, 0
+        return piece
     end = int(np.flatnonzero(on & ~np.roll(on, -1))[-1]) + 1  # past a run on the cut
     order = np.roll(np.arange(len(p)), -end)
     ring = type(blob.outer)(blob.outer.points[order], blob.outer.normals[order])
-    return Outline(ring, blob.holes, blob.partial, blob.pixels, blob.area, blob.centroid), int(on.sum())
+    fp = piece.fit.footprint
+    return Piece(replace(blob, outer=ring),
+                 replace(piece.fit, footprint=replace(fp, outline=fp.outline[order])),
+                 int(on.sum()))

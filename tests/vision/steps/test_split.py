@@ -49,6 +49,22 @@ def test_a_nut_touching_a_brackets_end_is_cut_off_it():
     assert nut.cut > 0  # the cut is marked, for the yaw
 
 
+def test_the_points_a_cut_piece_marks_as_cut_are_on_the_cut():
+    """The pose step leaves a piece's last ``cut`` footprint points out of its yaw: they
+    must be the cut's (the nut's left side, x = 0), in the footprint as in the ring."""
+    def bracket_and_nut(img):
+        cv2.rectangle(img, drawn.mm(-40, 6), drawn.mm(0, -6), (200, 200, 195), -1)
+        cv2.rectangle(img, drawn.mm(-40, 24), drawn.mm(-28, 6), (200, 200, 195), -1)
+        cv2.rectangle(img, drawn.mm(0, 9.5), drawn.mm(13, -3.5), (200, 200, 195), -1)
+        cv2.circle(img, drawn.mm(6.5, 3), drawn.px(4), drawn.BELT, -1)
+    _, pieces, plane = _pieces(bracket_and_nut)
+    nut = next(p for p in pieces if p.fit.kind == "square_nut")
+    on_cut = nut.fit.footprint.outline[-nut.cut:] * 1e3  # mm
+    assert np.abs(on_cut[:, 0]).max() < 1.5  # (a 1.5 px band: 0.9 mm, and the edge's half pixel)
+    ring = plane.points(nut.blob.outer.points[-nut.cut:], 0.0) * 1e3
+    assert np.abs(ring[:, 0]).max() < 1.5
+
+
 def test_one_part_is_not_cut():
     _, pieces, _ = _pieces(lambda img: cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1))
     assert pieces == []

@@ -25,8 +25,9 @@ The yaw is measured modulo the kind's rotational symmetry n
   neighbour's notch) turns it by 0.02 deg, not 0.46. A flat moved parallel as a whole (a
   dilated outline, a shadow's remnant) does not pull the angle, its offset being free; a
   flat broken into two offsets does (0.4 mm over half a flat: 0.66 deg, the chords 0.17).
-  On the bench's rendered frames the fit brings the presets' yaw p95 down by an eighth on
-  average (``cell bench vision``; a few rise, the default set's raking 1.78 to 1.84 deg).
+  On the bench's rendered frames the fit brings the presets' yaw p95 down by a seventh on
+  average (``cell bench vision``, four sets: 1.17 to 1.01 deg, three of 32 presets rising
+  by 0.06 deg at most; four sets used for no tuning: 1.14 to 0.99, five rising, one by 0.31).
   It costs about 0.9 ms per nut. The outline's last ``cut`` points are a straight cut that
   separated the part from one it touched, not an edge: those points and ``_CUT_GUARD``
   points either side (the contact's notch) are left out of both, chords and fit.
@@ -34,7 +35,8 @@ The yaw is measured modulo the kind's rotational symmetry n
   ``cell.sim.parts`` builds it): all its edges run at multiples of 90 degrees. The
   minimum-area rectangle's long side follows a clean outline closely but turns with a bite
   or a shadow on one side; the 4-fold chord mean above (kappa 2) does not, so where the two
-  disagree by more than 2 degrees the chords' angle is taken. The centroid sits near the
+  disagree by more than 2 degrees the chords' angle is taken (a cut's chords left out, as
+  the nuts'). The centroid sits near the
   outer corner, so of the axis' two senses the yaw is the one in which the outline reaches
   farther from the centroid (the long leg's tip).
 * **Bolt** (n = 2): the principal axis of the outline's second moments,
@@ -138,7 +140,7 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: int) -
         yaw = _fitted_flats(p, c, n, first, _off_cut(len(p), cut))
         yaw -= math.pi / 6 if kind == "hex_nut" else 0.0
     elif kind == "l_bracket":
-        yaw = _bracket_yaw(p, c, rect_angle)
+        yaw = _bracket_yaw(p, c, rect_angle, skip=_cut_chords(len(p), cut))
     elif kind == "bolt":
         yaw = _second_moment_angle(p)
     else:
@@ -216,10 +218,12 @@ def _flat_angle(p: np.ndarray, n: int, *, kappa: float, skip: np.ndarray | None 
     return math.atan2(mean.imag, mean.real) / n + math.pi / 2
 
 
-def _bracket_yaw(p: np.ndarray, c: np.ndarray, rect_angle: float) -> float:
-    """Yaw of an L bracket: direction of its long leg, seen from the outer corner."""
+def _bracket_yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, *,
+                 skip: np.ndarray | None = None) -> float:
+    """Yaw of an L bracket: direction of its long leg, seen from the outer corner; the
+    chords marked in ``skip`` (a cut) left out of the chords' angle."""
     a = rect_angle
-    off = (_flat_angle(p, 4, kappa=_BRACKET_KAPPA) - a + math.pi / 4) % (math.pi / 2) - math.pi / 4
+    off = (_flat_angle(p, 4, kappa=_BRACKET_KAPPA, skip=skip) - a + math.pi / 4) % (math.pi / 2) - math.pi / 4
     if abs(off) > _L_TURN:
         a += off
     u = np.array([math.cos(a), math.sin(a)])

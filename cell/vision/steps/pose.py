@@ -28,9 +28,10 @@ The yaw is measured modulo the kind's rotational symmetry n
   On the bench's rendered frames the fit brings the presets' yaw p95 down by a seventh on
   average (``cell bench vision``, four sets: 1.17 to 1.01 deg, three of 32 presets rising
   by 0.06 deg at most; four sets used for no tuning: 1.14 to 0.99, five rising, one by 0.31).
-  It costs about 0.9 ms per nut. The outline's last ``cut`` points are a straight cut that
-  separated the part from one it touched, not an edge: those points and ``_CUT_GUARD``
-  points either side (the contact's notch) are left out of both, chords and fit.
+  It costs about 0.9 ms per nut. The outline's points marked ``cut`` lie on a straight cut
+  that separated the part from one it touched (or two, for the middle part of a row), not
+  on an edge: those points and ``_CUT_GUARD`` points either side (the contact's notch) are
+  left out of both, chords and fit.
 * **L bracket** (n = 1; yaw 0: outer corner at -x, -y, long leg along +x, as
   ``cell.sim.parts`` builds it): all its edges run at multiples of 90 degrees. The
   minimum-area rectangle's long side follows a clean outline closely but turns with a bite
@@ -60,6 +61,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.ndimage import maximum_filter1d
 from scipy.optimize import least_squares
 
 from cell.catalogue import KINDS
@@ -89,32 +91,35 @@ class Pose:
 
 
 def part_pose(outline: np.ndarray, *, centroid: tuple[float, float], rect_angle: float, kind: str,
-              cut: int = 0) -> Pose:
+              cut: np.ndarray | None = None) -> Pose:
     """The pose of a part of ``kind`` from its footprint (see the module's docstring).
 
     outline: (N, 2) float, the footprint's outer boundary on the table plane (metres);
     centroid: the footprint's area centroid (m); rect_angle: direction of the minimum-area
     rectangle's long side (rad); kind: a catalogue kind name (``cell.catalogue.KINDS``) or
-    ``"unknown"`` (then yaw 0, position the centroid); cut: the number of the outline's last
-    points that are a straight cut from a touching part (left out of the nuts' flats).
+    ``"unknown"`` (then yaw 0, position the centroid); cut: (N,) bool, the outline's points
+    that lie on a straight cut from a touching part (left out of the edges a nut's or an L
+    bracket's yaw reads), or None.
     """
-    p, c = _checked("part_pose", outline, centroid, kind, cut)
-    yaw = _yaw(p, c, float(rect_angle), kind, cut)
+    p, c, on_cut = _checked("part_pose", outline, centroid, kind, cut)
+    yaw = _yaw(p, c, float(rect_angle), kind, on_cut)
     position = _bolt_point(p, c, float(rect_angle)) if kind == "bolt" else c
     return Pose(position=(float(position[0]), float(position[1])), yaw=yaw)
 
 
 def kind_yaw(outline: np.ndarray, *, centroid: tuple[float, float], rect_angle: float, kind: str,
-             cut: int = 0) -> float:
+             cut: np.ndarray | None = None) -> float:
     """The yaw (rad, in [0, 2*pi/symmetry), 0 for symmetry 0 or ``"unknown"``) of
     :func:`part_pose`, alone."""
-    p, c = _checked("kind_yaw", outline, centroid, kind, cut)
-    return _yaw(p, c, float(rect_angle), kind, cut)
+    p, c, on_cut = _checked("kind_yaw", outline, centroid, kind, cut)
+    return _yaw(p, c, float(rect_angle), kind, on_cut)
 
 
-def _checked(where: str, outline, centroid, kind: str, cut: int) -> tuple[np.ndarray, np.ndarray]:
-    """The outline (N, 2) and centroid (2,) as float64 arrays, or a VisionError naming the
-    function ``where`` and the argument that is wrong."""
+def _checked(where: str, outline, centroid, kind: str, cut
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The outline (N, 2) and centroid (2,) as float64 arrays and the cut (N,) bool (all
+    False for None), or a VisionError naming the function ``where`` and the argument that is
+    wrong."""
     p = np.asarray(outline, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 3:
         raise VisionError(f"{where}: outline must be (N>=3, 2), got shape {p.shape}")
@@ -125,22 +130,28 @@ def _checked(where: str, outline, centroid, kind: str, cut: int) -> tuple[np.nda
         raise VisionError(f"{where}: centroid must be two finite numbers, got {centroid!r}")
     if kind != "unknown" and kind not in KINDS:
         raise VisionError(f"{where}: unknown kind {kind!r}; valid: {', '.join(KINDS)}, unknown")
-    if isinstance(cut, bool) or not isinstance(cut, int | np.integer) or not 0 <= cut <= len(p):
-        raise VisionError(f"{where}: cut must be an int in [0, {len(p)}], got {cut!r}")
-    return p, c
+    if cut is None:
+        return p, c, np.zeros(len(p), bool)
+    if not isinstance(cut, np.ndarray) or cut.dtype != bool or cut.shape != (len(p),):
+        got = f"{cut.dtype} {cut.shape}" if isinstance(cut, np.ndarray) else type(cut).__name__
+        raise VisionError(f"{where}: cut must be None or a bool array of the outline's "
+                          f"length ({len(p)},), got {got}")
+    return p, c, cut
 
 
-def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: int) -> float:
+def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: np.ndarray) -> float:
     """Yaw of a checked outline for its kind, folded into [0, 2*pi/n)."""
     n = KINDS[kind].symmetry if kind in KINDS else 0
     if n == 0:
         return 0.0
+    out = _left_out(cut)
+    skip = _chords_into(out) if out.any() else None
     if kind in _KAPPA:  # the nuts: their flats' normals; a hex nut's yaw is a corner's
-        first = _flat_angle(p, n, kappa=_KAPPA[kind], skip=_cut_chords(len(p), cut))
-        yaw = _fitted_flats(p, c, n, first, _off_cut(len(p), cut))
+        first = _flat_angle(p, n, kappa=_KAPPA[kind], skip=skip)
+        yaw = _fitted_flats(p, c, n, first, ~out)
         yaw -= math.pi / 6 if kind == "hex_nut" else 0.0
     elif kind == "l_bracket":
-        yaw = _bracket_yaw(p, c, rect_angle, skip=_cut_chords(len(p), cut))
+        yaw = _bracket_yaw(p, c, rect_angle, skip=skip)
     elif kind == "bolt":
         yaw = _second_moment_angle(p)
     else:
@@ -150,27 +161,22 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: int) -
     return 0.0 if yaw >= period else yaw  # (a tiny negative angle rounds up to the period)
 
 
-def _cut_run(m: int, cut: int) -> tuple[np.ndarray, int]:
-    """(each of the m outline points' place counted from the start of the run left out for a
-    cut, that run's length): the last ``cut`` points and ``_CUT_GUARD`` points either side,
-    at most half the outline; no run without a cut."""
-    r = (np.arange(m) - (m - cut - _CUT_GUARD)) % m
-    return r, (min(cut + 2 * _CUT_GUARD, m // 2) if cut else 0)
+def _left_out(cut: np.ndarray) -> np.ndarray:
+    """Mask (N,) of the outline points a yaw leaves out: those on a cut (``cut``, bool) and
+    ``_CUT_GUARD`` points either side of each, cyclically (``scipy.ndimage.maximum_filter1d``),
+    while at least half the outline is kept; else the cut's points alone, or none when
+    they are more than half."""
+    half = len(cut) // 2
+    out = maximum_filter1d(cut, size=2 * _CUT_GUARD + 1, mode="wrap")
+    if np.count_nonzero(out) <= half:
+        return out
+    return cut if np.count_nonzero(cut) <= half else np.zeros_like(cut)
 
 
-def _off_cut(m: int, cut: int) -> np.ndarray:
-    """Mask (m,) of the outline points off a cut (:func:`_cut_run`)."""
-    r, run = _cut_run(m, cut)
-    return r >= run
-
-
-def _cut_chords(m: int, cut: int) -> np.ndarray | None:
-    """Mask (m,) of the chords ``p[k] -> p[k + _STEP]`` that start in the run left out for a
-    cut (:func:`_cut_run`) or reach into it; None when there is no cut."""
-    if cut == 0:
-        return None
-    r, run = _cut_run(m, cut)
-    return (r < run) | (r >= m - _STEP)
+def _chords_into(out: np.ndarray) -> np.ndarray:
+    """Mask (N,) of the chords ``p[k] -> p[k + _STEP]`` (cyclic) that span a point of ``out``:
+    a window of ``_STEP + 1`` points starting at k."""
+    return maximum_filter1d(out, size=_STEP + 1, mode="wrap", origin=-((_STEP + 1) // 2))
 
 
 def _fitted_flats(p: np.ndarray, c: np.ndarray, n: int, first: float, keep: np.ndarray) -> float:

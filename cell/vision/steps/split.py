@@ -60,13 +60,13 @@ _SQUARE = np.ones((3, 3), np.uint8)
 
 @dataclass(frozen=True)
 class Piece:
-    """One part cut out of a blob: its ``blob`` (outline and pixels), its ``fit``, and how
-    many of its outline's last points lie on a cut (not an edge of the part: the yaw
-    leaves them out)."""
+    """One part cut out of a blob: its ``blob`` (outline and pixels), its ``fit``, and
+    ``cut``, (N,) bool over its outline's points: those on a cut (not an edge of the part:
+    the yaw leaves them out); None when no straight cut bounds it."""
 
     blob: Outline
     fit: KindFit
-    cut: int = 0
+    cut: np.ndarray | None = None
 
 
 @dataclass
@@ -161,9 +161,9 @@ def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixe
             cost, sub = _best_cut(blob.pixels, search, depth=depth + 1)
             if cost >= _ACCEPT:
                 return []
-            out += sub
+            out += [_mark_cut(q, segment, (pixels.x0, pixels.y0)) for q in sub]  # this cut too
             continue
-        out.append(_cut_last(Piece(blob, fit), segment, (pixels.x0, pixels.y0)))
+        out.append(_mark_cut(Piece(blob, fit), segment, (pixels.x0, pixels.y0)))
     return out
 
 
@@ -296,25 +296,18 @@ def _colour_seeds(pixels: PartPixels, image: np.ndarray) -> np.ndarray | None:
     return seeds
 
 
-def _cut_last(piece: Piece, segment: tuple | None, origin: tuple[int, int]) -> Piece:
+def _mark_cut(piece: Piece, segment: tuple | None, origin: tuple[int, int]) -> Piece:
     """The piece with its outline's points on the cut ``segment`` (within 1.5 px; in the
-    box whose corner is ``origin``) moved to the end, in its blob's ring and its
-    footprint's outline alike (the pose step leaves the last ``cut`` points of the
-    footprint out), and ``cut`` how many they are."""
+    box whose corner is ``origin``) marked in its ``cut``, besides those of an earlier one."""
     if segment is None:
         return piece
-    blob = piece.blob
-    p = blob.outer.points - origin
+    p = piece.blob.outer.points - origin
     a, b = segment
     ab = b - a
     t = np.clip(((p - a) @ ab) / max(float(ab @ ab), 1e-9), 0, 1)
     on = np.linalg.norm(p - (a + t[:, None] * ab), axis=1) < 1.5
+    if piece.cut is not None:
+        on |= piece.cut
     if not on.any() or on.all():
         return piece
-    end = int(np.flatnonzero(on & ~np.roll(on, -1))[-1]) + 1  # past a run on the cut
-    order = np.roll(np.arange(len(p)), -end)
-    ring = type(blob.outer)(blob.outer.points[order], blob.outer.normals[order])
-    fp = piece.fit.footprint
-    return Piece(replace(blob, outer=ring),
-                 replace(piece.fit, footprint=replace(fp, outline=fp.outline[order])),
-                 int(on.sum()))
+    return replace(piece, cut=on)

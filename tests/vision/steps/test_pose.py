@@ -67,6 +67,15 @@ def _area_centroid(p: np.ndarray) -> tuple[float, float]:
     return float(((x + xn) * cross).sum() / (6 * a)), float(((y + yn) * cross).sum() / (6 * a))
 
 
+def _last(m: int, n: int) -> np.ndarray | None:
+    """The cut mask of an outline of m points whose last n lie on a cut (None for n = 0)."""
+    if n == 0:
+        return None
+    out = np.zeros(m, bool)
+    out[m - n:] = True
+    return out
+
+
 def _err(got: float, want: float, period: float) -> float:
     e = (got - want) % period
     return min(e, period - e)
@@ -166,22 +175,36 @@ def test_a_nut_with_too_few_points_off_its_cut_keeps_the_chords_yaw():
     """Fewer than two points per flat off the cut: no fit, the chords' angle stands (an
     exact square traced with 2 points per side, its last 4 a cut)."""
     p = _turn(_dense(0.0065 * np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], float), 2), 0.3)
-    got = kind_yaw(p, centroid=tuple(AT), rect_angle=0.0, kind="square_nut", cut=4)
+    got = kind_yaw(p, centroid=tuple(AT), rect_angle=0.0, kind="square_nut", cut=_last(len(p), 4))
     assert 0 <= got < math.pi / 2 and math.isfinite(got)
 
 
 @pytest.mark.parametrize("kind", ["hex_nut", "square_nut"])
 def test_a_nuts_cut_points_do_not_count(kind):
-    """Whatever the outline's last ``cut`` points are, the yaw is the same."""
+    """Whatever the points marked ``cut`` are, the yaw is the same."""
     ring = _turn(_hexagon() if kind == "hex_nut" else _square(), 0.2)
     kept, cut = ring[:-20], 14
     straight = np.linspace(kept[-1], kept[0], cut + 2)[1:-1]
     scrambled = np.random.default_rng(1).uniform(0.28, 0.32, (cut, 2))
     a, b = (kind_yaw(np.concatenate([kept, tail]), centroid=tuple(AT), rect_angle=0.0, kind=kind,
-                     cut=cut) for tail in (straight, scrambled))
+                     cut=_last(len(kept) + cut, cut)) for tail in (straight, scrambled))
     assert a == pytest.approx(b, abs=1e-12)
     assert kind_yaw(np.concatenate([kept, scrambled]), centroid=tuple(AT), rect_angle=0.0,
                     kind=kind) != pytest.approx(a, abs=1e-3)  # not told: the points count
+
+
+def test_two_cuts_anywhere_on_a_nut_do_not_count():
+    """The middle part of a row is cut on two sides: points marked in two runs, neither at
+    the outline's end, are left out alike."""
+    ring = _turn(_hexagon(), 0.2)
+    cut = np.zeros(len(ring), bool)
+    cut[10:22] = cut[58:70] = True
+    exact = kind_yaw(ring, centroid=tuple(AT), rect_angle=0.0, kind="hex_nut", cut=cut)
+    bumped = ring.copy()
+    bumped[cut] = np.random.default_rng(2).uniform(0.28, 0.32, (int(cut.sum()), 2))
+    got = kind_yaw(bumped, centroid=tuple(AT), rect_angle=0.0, kind="hex_nut", cut=cut)
+    assert got == pytest.approx(exact, abs=1e-12)
+    assert math.degrees(_err(got, 0.2, math.pi / 3)) < 1e-6
 
 
 def test_a_square_nut_cut_by_a_slanted_chord_keeps_its_yaw_when_told_the_cut():
@@ -197,7 +220,8 @@ def test_a_square_nut_cut_by_a_slanted_chord_keeps_its_yaw_when_told_the_cut():
     outline = np.concatenate([kept, cut])
 
     def err(n: int) -> float:
-        y = kind_yaw(outline, centroid=tuple(AT), rect_angle=yaw, kind="square_nut", cut=n)
+        y = kind_yaw(outline, centroid=tuple(AT), rect_angle=yaw, kind="square_nut",
+                     cut=_last(len(outline), n))
         return math.degrees(_err(y, yaw, math.pi / 2))
 
     assert err(len(cut)) < 0.3
@@ -207,7 +231,8 @@ def test_a_square_nut_cut_by_a_slanted_chord_keeps_its_yaw_when_told_the_cut():
 def test_a_cut_does_not_change_a_bolt():
     p = _turn(_bolt(), 0.8)
     c = _area_centroid(p)
-    a, b = (part_pose(p, centroid=c, rect_angle=0.8, kind="bolt", cut=n) for n in (0, 10))
+    a, b = (part_pose(p, centroid=c, rect_angle=0.8, kind="bolt", cut=_last(len(p), n))
+            for n in (0, 10))
     assert a == b
 
 
@@ -227,7 +252,7 @@ def test_an_l_brackets_cut_chords_do_not_turn_it():
 
     def err(n: int) -> float:
         y = kind_yaw(outline, centroid=tuple(AT), rect_angle=yaw + math.radians(3), kind="l_bracket",
-                     cut=n)
+                     cut=_last(len(outline), n))
         return math.degrees(_err(y, yaw, 2 * math.pi))
 
     assert err(len(cut)) < 0.1
@@ -253,9 +278,10 @@ def test_pose_is_frozen_and_plain():
     ({"outline": np.full((5, 2), np.nan)}, "outline"),
     ({"centroid": (0.0,)}, "centroid"),
     ({"kind": "hexnut"}, "kind"),
-    ({"cut": -1}, "cut"),
-    ({"cut": 1000}, "cut"),
-    ({"cut": 2.0}, "cut"),
+    ({"cut": 3}, "cut"),
+    ({"cut": np.ones(5, bool)}, "cut"),
+    ({"cut": np.ones(96)}, "cut"),
+    ({"cut": [True] * 96}, "cut"),
 ])
 def test_bad_input_names_the_argument(args, culprit):
     call = {"outline": _square(), "centroid": (0.0, 0.0), "rect_angle": 0.0, "kind": "square_nut",

@@ -46,11 +46,11 @@ def test_a_nut_touching_a_brackets_end_is_cut_off_it():
     assert sorted(p.fit.kind for p in pieces) == ["l_bracket", "square_nut"]
     nut = next(p for p in pieces if p.fit.kind == "square_nut")
     assert nut.fit.footprint.centroid[0] * 1e3 == pytest.approx(6.5, abs=1.0)
-    assert nut.cut > 0  # the cut is marked, for the yaw
+    assert nut.cut is not None and nut.cut.any()  # the cut is marked, for the yaw
 
 
 def test_the_points_a_cut_piece_marks_as_cut_are_on_the_cut():
-    """The pose step leaves a piece's last ``cut`` footprint points out of its yaw: they
+    """The pose step leaves the footprint points marked ``cut`` out of a piece's yaw: they
     must be the cut's (the nut's left side, x = 0), in the footprint as in the ring."""
     def bracket_and_nut(img):
         cv2.rectangle(img, drawn.mm(-40, 6), drawn.mm(0, -6), (200, 200, 195), -1)
@@ -59,15 +59,29 @@ def test_the_points_a_cut_piece_marks_as_cut_are_on_the_cut():
         cv2.circle(img, drawn.mm(6.5, 3), drawn.px(4), drawn.BELT, -1)
     _, pieces, plane = _pieces(bracket_and_nut)
     nut = next(p for p in pieces if p.fit.kind == "square_nut")
-    on_cut = nut.fit.footprint.outline[-nut.cut:] * 1e3  # mm
+    on_cut = nut.fit.footprint.outline[nut.cut] * 1e3  # mm
     assert np.abs(on_cut[:, 0]).max() < 1.5  # (a 1.5 px band: 0.9 mm, and the edge's half pixel)
-    ring = plane.points(nut.blob.outer.points[-nut.cut:], 0.0) * 1e3
+    ring = plane.points(nut.blob.outer.points[nut.cut], 0.0) * 1e3
     assert np.abs(ring[:, 0]).max() < 1.5
 
 
 def test_one_part_is_not_cut():
     _, pieces, _ = _pieces(lambda img: cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1))
     assert pieces == []
+
+
+def test_the_middle_part_of_a_row_has_both_its_cuts_marked():
+    """Three discs in a row: the blob is cut once, then the piece of two again; the middle
+    disc's outline touches both cuts, and the points on each are marked (x = -15, +15 mm)."""
+    def row(img):
+        for x in (-30, 0, 30):
+            cv2.circle(img, drawn.mm(x, 0), drawn.px(15), (200, 200, 195), -1)
+    _, pieces, _ = _pieces(row)
+    assert [p.fit.kind for p in pieces] == ["disc"] * 3
+    middle = min(pieces, key=lambda p: abs(p.fit.footprint.centroid[0]))
+    on_cut = middle.fit.footprint.outline[middle.cut] * 1e3  # mm
+    assert on_cut[:, 0] == pytest.approx(np.where(on_cut[:, 0] < 0, -15.0, 15.0), abs=1.5)
+    assert (on_cut[:, 0] < 0).any() and (on_cut[:, 0] > 0).any()
 
 
 def test_a_third_part_touching_at_a_corner_only_is_kept():

@@ -89,6 +89,7 @@ _WHERE = {
     "table_homography": "geometry",
     "threshold_adaptive": "threshold",
     "threshold_fixed": "threshold",
+    "threshold_hysteresis": "threshold",
     "threshold_iterative": "threshold",
     "threshold_otsu": "threshold",
     "two_template_decision": "template",

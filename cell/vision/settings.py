@@ -57,6 +57,11 @@ class VisionSettings:
         4.0, lo=1.0, hi=50.0,
         doc="belt segmentation: the threshold in noise multiples (MAD) above the median difference"
     )
+    belt_low: float = setting(
+        0.8, lo=0.05, hi=1.0,
+        doc="belt segmentation: hysteresis, the low threshold as a fraction of the threshold: "
+        "fainter pixels are foreground where they connect to one above it (1 = off)",
+    )
     smooth: int = setting(
         3, lo=0, hi=15,
         doc="aperture of the Gaussian applied to a noisy frame before differencing (px, odd; "

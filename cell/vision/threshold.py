@@ -1,13 +1,17 @@
-"""Thresholding: fixed, Otsu, iterative (Ridler-Calvard) and adaptive (local).
+"""Thresholding: fixed, Otsu, iterative (Ridler-Calvard), adaptive (local) and hysteresis.
 
 Global methods return a grey level ``t``; the object is ``image > t`` (bright
 objects) unless the caller inverts. Adaptive methods compare each pixel with a local
 mean, so they survive a lighting gradient that defeats any single global level.
+Hysteresis keeps the faint pixels connected to clear ones (Canny's edge linking, applied
+to regions).
 
 References: Gonzalez & Woods, *Digital Image Processing*, 4th ed., 10.3; N. Otsu,
 "A threshold selection method from gray-level histograms", IEEE SMC 9(1), 1979;
 T. W. Ridler and S. Calvard, "Picture thresholding using an iterative selection
-method", IEEE SMC 8(8), 1978; OpenCV ``cv2.threshold`` and ``cv2.adaptiveThreshold``.
+method", IEEE SMC 8(8), 1978; J. Canny, "A computational approach to edge detection",
+IEEE PAMI 8(6), 1986; OpenCV ``cv2.threshold``, ``cv2.adaptiveThreshold`` and
+``cv2.connectedComponents``.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from cell.vision._checks import check_choice, check_gray, check_odd, check_range
 __all__ = [
     "threshold_adaptive",
     "threshold_fixed",
+    "threshold_hysteresis",
     "threshold_iterative",
     "threshold_otsu",
 ]
@@ -50,6 +55,38 @@ def threshold_fixed(
     check_choice("polarity", polarity, POLARITIES)
     mask = image > value
     return mask if polarity == "bright" else ~mask
+
+
+def threshold_hysteresis(
+    image: np.ndarray, *, low: float, high: float, connectivity: int = 8
+) -> np.ndarray:
+    """Binary mask of the pixels above ``low`` that are connected to a pixel above
+    ``high``.
+
+    A pixel above ``high`` is object; a pixel above ``low`` only is object when its
+    region of pixels above ``low`` (``cv2.connectedComponents``) holds one above
+    ``high``. The faint rim of an object that is clear somewhere is kept; faint noise on
+    its own is not. With ``connectivity=4`` the mask is scikit-image's
+    ``filters.apply_hysteresis_threshold``.
+
+    Parameters
+    ----------
+    image : uint8 (H, W).
+    low, high : grey levels, 0 <= low <= high <= 255.
+    connectivity : 4 or 8 (whether regions join through corners).
+
+    Returns a bool (H, W) mask.
+    """
+    image = check_gray("image", image)
+    check_range("high", high, 0, 255)
+    check_range("low", low, 0, high)
+    check_choice("connectivity", connectivity, (4, 8))
+    weak = np.uint8(image > low)
+    n, labels = cv2.connectedComponents(weak, connectivity=connectivity)
+    held = np.zeros(n, bool)
+    held[labels[image > high]] = True  # the regions that hold a strong pixel
+    held[0] = False  # (label 0: below low)
+    return np.take(held, labels)
 
 
 def threshold_otsu(image: np.ndarray) -> int:

@@ -5,13 +5,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from skimage import data
-from skimage.filters import threshold_isodata
+from skimage.filters import apply_hysteresis_threshold, threshold_isodata
 from skimage.filters import threshold_otsu as sk_otsu
 
 from cell.errors import VisionError
 from cell.vision.threshold import (
     threshold_adaptive,
     threshold_fixed,
+    threshold_hysteresis,
     threshold_iterative,
     threshold_otsu,
 )
@@ -137,6 +138,33 @@ def test_adaptive_follows_its_documented_rule_and_opencv(method, block_size, off
         np.testing.assert_array_equal(dark, cv > 0)
 
 
+def test_hysteresis_keeps_a_faint_rim_and_drops_faint_noise():
+    """A part clear in its middle (200) with a faint rim (60) is kept whole; a faint speck
+    (60) alone, and the belt (20), are not; a rim touching only at a corner joins under
+    8-connectivity, not 4."""
+    img = np.full((20, 20), 20, np.uint8)
+    img[4:10, 4:10] = 60
+    img[6:8, 6:8] = 200
+    img[15:17, 15:17] = 60  # a speck
+    img[10, 10] = 60  # corner-touching the rim
+    got = threshold_hysteresis(img, low=40, high=100)
+    want = np.zeros_like(got)
+    want[4:10, 4:10] = True
+    want[10, 10] = True
+    assert (got == want).all()
+    assert not threshold_hysteresis(img, low=40, high=100, connectivity=4)[10, 10]
+    assert (threshold_hysteresis(img, low=100, high=100) == (img > 100)).all()
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 30), st.integers(1, 30))),
+       st.integers(0, 255), st.integers(0, 255))
+def test_hysteresis_with_4_connectivity_equals_scikit_image(img, a, b):
+    low, high = min(a, b), max(a, b)
+    got = threshold_hysteresis(img, low=low, high=high, connectivity=4)
+    assert (got == apply_hysteresis_threshold(img, low, high)).all()
+
+
 def test_threshold_errors_name_the_argument():
     with pytest.raises(VisionError, match="image"):
         threshold_otsu(np.zeros((4, 4, 3), np.uint8))
@@ -144,3 +172,7 @@ def test_threshold_errors_name_the_argument():
         threshold_adaptive(np.zeros((9, 9), np.uint8), block_size=4)
     with pytest.raises(VisionError, match="method.*valid"):
         threshold_adaptive(np.zeros((9, 9), np.uint8), method="median")
+    with pytest.raises(VisionError, match="low"):
+        threshold_hysteresis(np.zeros((9, 9), np.uint8), low=50, high=40)
+    with pytest.raises(VisionError, match="connectivity.*valid"):
+        threshold_hysteresis(np.zeros((9, 9), np.uint8), low=10, high=40, connectivity=6)

@@ -6,9 +6,11 @@ the belt, its texture's mean, light gradients and spot lights, and drops the par
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
-difference, at least ``belt_floor``); the outline step then re-thresholds each blob in
-its own box. A noisy frame (a difference MAD over 2 grey levels) is smoothed by a 3x3
-Gaussian first. A bright, colourless belt is a light table (``backlit``).
+difference, at least ``belt_floor``), with hysteresis: a pixel above ``belt_low`` times
+that threshold is foreground too where it connects to one above it, so a faint part
+that is clear somewhere is one group of pixels, not fragments (Canny, 1986, applied to
+regions); the outline step then re-thresholds each blob in its own box. A noisy frame (a difference MAD over 2
+grey levels) is smoothed by a 3x3 Gaussian first. A bright, colourless belt is a light table (``backlit``).
 
 The textbook methods threshold the grey image instead, with the syllabus functions of
 :mod:`cell.vision.threshold`: ``fixed`` (``threshold``), ``otsu``, ``iterative``
@@ -32,6 +34,7 @@ from cell.vision.settings import VisionSettings
 from cell.vision.threshold import (
     threshold_adaptive,
     threshold_fixed,
+    threshold_hysteresis,
     threshold_iterative,
     threshold_otsu,
 )
@@ -160,8 +163,8 @@ def find_foreground(image: np.ndarray, settings: VisionSettings) -> Foreground:
         if smoothed is not image:
             diff = colour_difference(smoothed, low, high)
             med, mad = _median_mad(diff)
-        t = max(float(st.belt_floor), med + st.noise_k * max(mad, 0.5))
-        mask = threshold_fixed(diff, value=min(t, 255.0))
+        t = min(max(float(st.belt_floor), med + st.noise_k * max(mad, 0.5)), 255.0)
+        mask = threshold_hysteresis(diff, low=st.belt_low * t, high=t)
     else:
         diff = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
         polarity = "dark" if backlit else "bright"

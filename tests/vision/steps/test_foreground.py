@@ -80,3 +80,24 @@ def test_a_noisy_frame_is_smoothed_first():
     fg = find_foreground(img, VisionSettings())
     assert fg.image is not img and fg.noise > 2
     assert cv2.countNonZero(fg.mask) < 0.001 * img.shape[0] * img.shape[1]  # no noise specks
+
+
+def test_a_faint_rim_joins_the_clear_part_it_touches_and_faint_alone_is_belt():
+    """Hysteresis: a part clear in its middle (60 grey levels over the belt) with a rim 7
+    over (under the threshold, 8, over its 0.8) is one region of foreground; a region 7
+    over the belt on its own is not foreground; with ``belt_low = 1`` the rim is not either."""
+    img = np.empty((480, 640, 3), np.uint8)
+    img[:] = drawn.BELT
+    faint = tuple(c + 7 for c in drawn.BELT)
+    cv2.circle(img, drawn.mm(-40, 0), drawn.px(12), faint, -1)  # the rim
+    cv2.circle(img, drawn.mm(-40, 0), drawn.px(6), (200, 200, 195), -1)  # the clear middle
+    cv2.rectangle(img, drawn.mm(30, 5), drawn.mm(40, -5), faint, -1)  # faint, alone
+    u, v = drawn.mm(-40 + 9, 0)  # on the rim
+    x, y = drawn.mm(35, 0)  # in the faint square
+    fg = find_foreground(img, VisionSettings())
+    assert fg.threshold == 8
+    assert fg.mask[v, u] and not fg.mask[y, x]
+    n, _ = cv2.connectedComponents(fg.mask)
+    assert n == 2  # the part, whole, and the belt
+    plain = find_foreground(img, VisionSettings(belt_low=1.0))
+    assert not plain.mask[v, u] and not plain.mask[y, x]

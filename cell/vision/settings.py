@@ -59,8 +59,9 @@ class VisionSettings:
     )
     belt_low: float = setting(
         0.8, lo=0.05, hi=1.0,
-        doc="belt segmentation: hysteresis, the low threshold as a fraction of the threshold: "
-        "fainter pixels are foreground where they connect to one above it (1 = off)",
+        doc="belt segmentation of a noisy frame: hysteresis, the low threshold as a fraction "
+        "of the threshold: fainter pixels are foreground where they connect to one above it "
+        "(1 = off)",
     )
     smooth: int = setting(
         3, lo=0, hi=15,

@@ -6,11 +6,13 @@ the belt, its texture's mean, light gradients and spot lights, and drops the par
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
-difference, at least ``belt_floor``), with hysteresis: a pixel above ``belt_low`` times
-that threshold is foreground too where it connects to one above it, so a faint part
-that is clear somewhere is one group of pixels, not fragments (Canny, 1986, applied to
-regions); the outline step then re-thresholds each blob in its own box. A noisy frame (a difference MAD over 2
-grey levels) is smoothed by a 3x3 Gaussian first. A bright, colourless belt is a light table (``backlit``).
+difference, at least ``belt_floor``); the outline step then re-thresholds each blob in
+its own box. A noisy frame (a difference MAD over 2 grey levels) is smoothed by a 3x3
+Gaussian first, and thresholded with hysteresis: its threshold stands high over a faint
+part's contrast, so a pixel above ``belt_low`` times the threshold is foreground too
+where it connects to one above it, and a faint part that is clear somewhere is one group
+of pixels, not fragments (Canny, 1986, applied to regions). A bright, colourless belt is
+a light table (``backlit``).
 
 The textbook methods threshold the grey image instead, with the syllabus functions of
 :mod:`cell.vision.threshold`: ``fixed`` (``threshold``), ``otsu``, ``iterative``
@@ -164,7 +166,10 @@ def find_foreground(image: np.ndarray, settings: VisionSettings) -> Foreground:
             diff = colour_difference(smoothed, low, high)
             med, mad = _median_mad(diff)
         t = min(max(float(st.belt_floor), med + st.noise_k * max(mad, 0.5)), 255.0)
-        mask = threshold_hysteresis(diff, low=st.belt_low * t, high=t)
+        if noise > _NOISY:  # the threshold stands high over faint parts: hysteresis
+            mask = threshold_hysteresis(diff, low=st.belt_low * t, high=t)
+        else:
+            mask = threshold_fixed(diff, value=t)
     else:
         diff = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
         polarity = "dark" if backlit else "bright"

@@ -144,7 +144,7 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: np.nda
     n = KINDS[kind].symmetry if kind in KINDS else 0
     if n == 0:
         return 0.0
-    out = _left_out(cut)
+    out = _cut_and_guard(cut) if cut.any() else cut  # (no cut: nothing to widen)
     skip = _chords_into(out) if out.any() else None
     if kind in _KAPPA:  # the nuts: their flats' normals; a hex nut's yaw is a corner's
         first = _flat_angle(p, n, kappa=_KAPPA[kind], skip=skip)
@@ -161,7 +161,7 @@ def _yaw(p: np.ndarray, c: np.ndarray, rect_angle: float, kind: str, cut: np.nda
     return 0.0 if yaw >= period else yaw  # (a tiny negative angle rounds up to the period)
 
 
-def _left_out(cut: np.ndarray) -> np.ndarray:
+def _cut_and_guard(cut: np.ndarray) -> np.ndarray:
     """Mask (N,) of the outline points a yaw leaves out: those on a cut (``cut``, bool) and
     ``_CUT_GUARD`` points either side of each, cyclically (``scipy.ndimage.maximum_filter1d``),
     while at least half the outline is kept; else the cut's points alone, or none when

@@ -50,8 +50,6 @@ _MID = 0.0025  # m: the edge height of the classifying footprint
 _HOPELESS = 30.0  # a mid-height score above this for every kind: no kind near, not refined
 _REFINE_GAP = 4.0  # a runner-up this much worse at mid height is not refined
 _SHANK = 0.006  # m: a bolt's shank diameter (M6)
-
-
 _LEG = 0.012  # m: an L bracket's legs are 12 mm wide
 
 

@@ -252,6 +252,8 @@ def _parse_value(text: str, key: str, where: str) -> Any:
         return text  # a bare word: a string such as `lighting=back`
     except RecursionError:
         raise ScenarioError(f"{where}: key '{key}': value nested too deeply") from None
+    except ValueError:  # tomllib refuses integers over Python's 4,300-digit conversion limit
+        raise ScenarioError(f"{where}: key '{key}': an integer of over 4,300 digits") from None
     # `1\nname = "x"` would smuggle in a second key: such text is a (bad) string, not TOML
     return parsed["v"] if set(parsed) == {"v"} else text
 

@@ -9,6 +9,7 @@ refuses, before any work is done, a path that cannot become a file.
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 import tomllib
 from collections.abc import Callable
@@ -18,7 +19,7 @@ from cell.config import escape
 from cell.errors import CellError
 
 __all__ = ["MAX_TOML_BYTES", "atomic_write_bytes", "atomic_write_text", "check_output_file",
-           "file_mode", "read_toml_file"]
+           "file_mode", "input_path", "read_input_bytes", "read_toml_file"]
 
 MAX_TOML_BYTES = 1 << 20  # a scenario or sweep file is a page of TOML; more is a wrong file
 
@@ -82,8 +83,9 @@ def _fsync_dir(folder: Path) -> None:
 
 
 def check_output_file(arg: str, option: str, *, error: type[CellError] = CellError) -> Path:
-    """The file an option names, checked before the run: not empty, not a folder, its
-    folder exists and is writable. Raises ``error`` naming the option and the path."""
+    """The file an option names, checked before the run: not empty, not a folder nor any
+    other non-regular file (a device or FIFO would be replaced by the rename), its folder
+    exists and is writable. Raises ``error`` naming the option and the path."""
     if not arg:
         raise error(f"{option}: empty path; name a file")
     shown = escape(repr(arg))
@@ -91,6 +93,8 @@ def check_output_file(arg: str, option: str, *, error: type[CellError] = CellErr
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise error(f"{option} {shown}: is a folder; name a file")
+    if path.exists() and not path.is_file():
+        raise error(f"{option} {shown}: not a regular file (a device, FIFO or socket); name a file")
     if not folder.is_dir():
         raise error(f"{option} {shown}: the folder {escape(repr(str(folder)))} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
@@ -98,21 +102,55 @@ def check_output_file(arg: str, option: str, *, error: type[CellError] = CellErr
     return path
 
 
-def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError]) -> dict:
-    """The TOML table in ``path`` (UTF-8, a leading byte-order mark dropped), or ``error``
-    naming ``shown`` (the path as the user wrote it, escaped) and ``kind`` (``scenario
-    file``...) when it is missing, a folder, unreadable, over 1 MiB, not UTF-8 or not TOML."""
+def input_path(arg: str | Path, *, kind: str, error: type[CellError]) -> tuple[Path, str]:
+    """``arg`` as a path and as shown in messages (escaped); an empty string raises
+    ``error`` (``Path("")`` would silently mean the current folder)."""
+    if isinstance(arg, str) and not arg.strip():
+        raise error(f"{escape(repr(arg))}: empty path; name a {kind}")
+    return Path(arg), escape(str(arg))
+
+
+def read_input_bytes(path: Path, shown: str, *, kind: str, limit: int,
+                     error: type[CellError]) -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them, or ``error``
+    naming ``shown`` and ``kind`` when it is missing, a folder, a device, FIFO or socket,
+    unreadable or larger. The file is opened without blocking, so a FIFO is refused
+    rather than waited on."""
     try:
-        with path.open("rb") as f:
-            data = f.read(MAX_TOML_BYTES + 1)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         raise error(f"{shown}: no such {kind}") from None
     except IsADirectoryError:
         raise error(f"{shown}: is a directory, not a {kind}") from None
     except OSError as exc:
         raise error(f"{shown}: cannot read the {kind}: {escape(exc.strerror or str(exc))}") from None
-    if len(data) > MAX_TOML_BYTES:
-        raise error(f"{shown}: larger than 1 MiB; not a {kind}")
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        if stat.S_ISDIR(mode):
+            raise error(f"{shown}: is a directory, not a {kind}")
+        raise error(f"{shown}: not a regular file (a device, FIFO or socket); not a {kind}")
+    with os.fdopen(fd, "rb") as f:
+        try:
+            data = f.read(limit + 1)
+        except OSError as exc:
+            raise error(f"{shown}: cannot read the {kind}: "
+                        f"{escape(exc.strerror or str(exc))}") from None
+    if len(data) > limit:
+        raise error(f"{shown}: larger than {_size(limit)}; not a {kind}")
+    return data
+
+
+def _size(n: int) -> str:
+    return f"{n >> 20} MiB" if n >= 1 << 20 and n % (1 << 20) == 0 else f"{n:,} bytes"
+
+
+def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError]) -> dict:
+    """The TOML table in ``path`` (UTF-8, a leading byte-order mark dropped), or ``error``
+    naming ``shown`` (the path as the user wrote it, escaped) and ``kind`` (``scenario
+    file``...) when it is missing, a folder, not a regular file, unreadable, over 1 MiB,
+    not UTF-8 or not TOML."""
+    data = read_input_bytes(path, shown, kind=kind, limit=MAX_TOML_BYTES, error=error)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -124,3 +162,5 @@ def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError])
         raise error(f"{shown}: not valid TOML: {escape(str(exc))}") from None
     except RecursionError:
         raise error(f"{shown}: not valid TOML: arrays or tables nested too deeply") from None
+    except ValueError:  # tomllib refuses integers over Python's 4,300-digit conversion limit
+        raise error(f"{shown}: not valid TOML: an integer of over 4,300 digits") from None

@@ -28,9 +28,9 @@ from typing import Any
 
 from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
-from cell.config import apply_override, build, escape, override_source, setting, show
+from cell.config import apply_override, build, override_source, setting, show
 from cell.errors import ScenarioError
-from cell.files import read_toml_file
+from cell.files import input_path, read_toml_file
 from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
 from cell.robot.settings import RobotSettings
 from cell.vision.settings import VisionSettings
@@ -130,8 +130,7 @@ def load_scenario(
     Raises ``ScenarioError`` naming the file (escaped) and key for any invalid input; an
     invalid ``seed`` is reported as ``--seed``.
     """
-    path = Path(path)
-    shown = escape(str(path))
+    path, shown = input_path(path, kind="scenario file", error=ScenarioError)
     data = read_toml_file(path, shown, kind="scenario file", error=ScenarioError)
     scenario = scenario_from_dict(data, where=shown, overrides=overrides)
     if seed is None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -152,16 +154,49 @@ def test_file_that_is_not_utf8_is_a_scenario_error(tmp_path, data):
 def test_unreadable_file_is_a_scenario_error(tmp_path, monkeypatch):
     f = tmp_path / "s.toml"
     f.write_text("seed = 1\n")
-    real_open = Path.open
+    real_open = os.open
 
-    def deny(self, *args, **kwargs):
-        if self == f:
-            raise PermissionError(13, "Permission denied", str(self))
-        return real_open(self, *args, **kwargs)
+    def deny(path, *args, **kwargs):
+        if Path(path) == f:
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_open(path, *args, **kwargs)
 
-    monkeypatch.setattr(Path, "open", deny)
+    monkeypatch.setattr(os, "open", deny)
     with pytest.raises(ScenarioError, match=r"cannot read the scenario file: Permission denied"):
         load_scenario(f)
+
+
+def test_a_fifo_or_device_is_refused_not_waited_on(tmp_path):
+    fifo = tmp_path / "s.toml"
+    os.mkfifo(fifo)
+    signal.signal(signal.SIGALRM, _too_slow)
+    signal.alarm(10)  # a blocking open() would wait for a writer forever
+    try:
+        with pytest.raises(ScenarioError, match=r"s\.toml: not a regular file"):
+            load_scenario(fifo)
+    finally:
+        signal.alarm(0)
+    with pytest.raises(ScenarioError, match=r"^/dev/null: not a regular file"):
+        load_scenario("/dev/null")
+
+
+def _too_slow(signum, frame):
+    raise AssertionError("load_scenario blocked on a FIFO")
+
+
+@pytest.mark.parametrize("arg", ["", "  "])
+def test_an_empty_path_is_refused_as_empty(arg):
+    with pytest.raises(ScenarioError, match=r"empty path; name a scenario file"):
+        load_scenario(arg)
+
+
+def test_an_integer_too_long_for_python_is_a_scenario_error(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("seed = " + "9" * 5000 + "\n")
+    with pytest.raises(ScenarioError, match=r"s\.toml: not valid TOML: an integer of over 4,300"):
+        load_scenario(f)
+    with pytest.raises(ScenarioError, match=r"key 'conveyor\.speed': an integer of over 4,300"):
+        scenario_from_dict({}, overrides=["conveyor.speed=" + "9" * 5000])
 
 
 def test_utf8_bom_is_accepted(tmp_path):

@@ -23,7 +23,7 @@ class CalibrationSettings:
 
     poses: int = setting(20, lo=3, hi=200, doc="robot poses (views) captured per camera")
     board_inner_corners: tuple[int, ...] = setting(
-        (8, 5), lo=2, hi=50, length=2,
+        (8, 5), lo=3, hi=50, length=2,
         doc="inner corners of the checkerboard along its x and y (one even, one odd)",
     )
     board_square: float = setting(0.025, lo=0.001, hi=1.0, doc="edge of one board square (m)")
@@ -47,7 +47,7 @@ class CalibrationSettings:
         90.0, lo=0.0, hi=180.0, doc="largest turn of a view about its own axis (deg)"
     )
     flange_board_inner_corners: tuple[int, ...] = setting(
-        (8, 5), lo=2, hi=50, length=2,
+        (8, 5), lo=3, hi=50, length=2,
         doc="inner corners of the checkerboard plate on the tool (the overhead camera's target) "
         "along its x and y (one even, one odd)",
     )

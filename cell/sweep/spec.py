@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from cell.config import escape, show
-from cell.files import read_toml_file
+from cell.files import input_path, read_toml_file
 from cell.sweep.errors import SweepError
 from cell.sweep.grid import Axis, flatten, parse_axes
 from cell.sweep.jobs import JOBS
@@ -205,7 +205,6 @@ def sweep_from_dict(data: dict, *, source: str, folder: Path) -> SweepSpec:
 
 def load_sweep(path: str | Path) -> SweepSpec:
     """Read and parse the sweep file ``path`` (see the module docstring)."""
-    path = Path(path)
-    shown = escape(str(path))
+    path, shown = input_path(path, kind="sweep file", error=SweepError)
     data = read_toml_file(path, shown, kind="sweep file", error=SweepError)
     return sweep_from_dict(data, source=str(path), folder=path.parent)

@@ -20,6 +20,9 @@ def test_defaults_and_overrides():
 
 @pytest.mark.parametrize(("data", "pattern"), [
     ({"board_inner_corners": [8, 6]}, r"'calibration.board_inner_corners' must be one even and one odd"),
+    ({"board_inner_corners": [2, 3]}, r"'calibration.board_inner_corners' = 2 is out of range"),
+    ({"flange_board_inner_corners": [4, 2]},
+     r"'calibration.flange_board_inner_corners' = 2 is out of range"),
     ({"distance": [0.5, 0.3]}, r"'calibration.distance' must be \[near, far\]"),
     ({"poses": 2}, r"'calibration.poses' = 2 is out of range"),
     ({"joint_noise_deg": -0.1}, r"'calibration.joint_noise_deg' = -0.1 is out of range"),

@@ -6,10 +6,15 @@ Units: pixels for ``K``, metres for the translation of ``T_world_camera``.
 
 Every model is checked when it is made, whether in code, by :meth:`CameraModel.from_dict`
 or by :meth:`CameraModel.load`: all values finite; ``width`` and ``height`` integers in
-1..``MAX_SIDE``; ``K`` upper triangular with fx, fy > 0 and bottom row [0, 0, 1];
-``dist`` five numbers; ``T_world_camera`` a rigid transform: its rotation orthonormal
-with determinant +1 and its bottom row [0, 0, 0, 1], each within ``TOLERANCE``. A
-failure is a ``CalibrationError`` naming the field (and the file, when loading).
+1..``MAX_SIDE``; ``K`` upper triangular with bottom row [0, 0, 1], fx and fy from
+``FOCAL_RANGE[0]`` to ``FOCAL_RANGE[1]`` times the image's larger side (a field of view
+across it of 179.8 down to 0.06 degrees), the principal point (cx, cy) within one image
+size of the image (-width to 2 width, -height to 2 height) and the skew at most fx in
+size; ``dist`` five numbers, each within +-``MAX_DISTORTION``; ``T_world_camera`` a rigid
+transform: its rotation orthonormal with determinant +1 and its bottom row [0, 0, 0, 1],
+each within ``TOLERANCE``, its translation within +-``MAX_TRANSLATION`` metres on each
+axis. A failure is a ``CalibrationError`` naming the field (and the file, when loading);
+a value out of its range is named with the range.
 """
 
 from __future__ import annotations
@@ -23,11 +28,15 @@ import numpy as np
 
 from cell.errors import CalibrationError
 
-__all__ = ["MAX_FILE_BYTES", "MAX_SIDE", "TOLERANCE", "CameraModel", "check_camera_fields", "read_json_file"]
+__all__ = ["FOCAL_RANGE", "MAX_DISTORTION", "MAX_FILE_BYTES", "MAX_SIDE", "MAX_TRANSLATION", "TOLERANCE",
+           "CameraModel", "check_camera_fields", "read_json_file"]
 
 TOLERANCE = 1e-6  # absolute: |R^T R - I|, |det R - 1| and the fixed rows of K and T
 MAX_SIDE = 1 << 16  # pixels: the largest width or height of a camera model
 MAX_FILE_BYTES = 1 << 20  # a camera.json larger than this is no camera file
+FOCAL_RANGE = (1e-3, 1e3)  # fx, fy over the image's larger side (a 4096x16 image at fovy 120: 1.1e-3)
+MAX_DISTORTION = 100.0  # |k1|, |k2|, |p1|, |p2|, |k3| (lenses calibrate to a few units at most)
+MAX_TRANSLATION = 100.0  # metres: |x|, |y|, |z| of a pose's translation (a cell is a few metres)
 _REQUIRED = ("width", "height", "K", "T_world_camera")  # "dist" is optional (zeros)
 _K_ROLES = {(0, 0): "fx", (1, 1): "fy", (0, 2): "cx", (1, 2): "cy", (0, 1): "skew"}
 
@@ -205,7 +214,8 @@ def _checked(width: object, height: object, K: object, dist: object, T: object,
     K = _array("K", K, (3, 3))
     dist = _array("dist", dist, (5,))
     T = _array(pose_name, T, (4, 4))
-    _check_intrinsics(K)
+    _check_intrinsics(K, width, height)
+    _check_distortion(dist)
     _check_pose(T, pose_name)
     return width, height, K, dist, T
 
@@ -255,7 +265,7 @@ def _from_lists(name: str, value: object, want: str) -> np.ndarray:
     return np.array(value, dtype=np.float64)
 
 
-def _check_intrinsics(K: np.ndarray) -> None:
+def _check_intrinsics(K: np.ndarray, width: int, height: int) -> None:
     for at in ((0, 0), (1, 1)):
         if not K[at] > 0:
             raise CalibrationError(f"{_element('K', at)} must be > 0 (pixels), got {K[at]}")
@@ -263,6 +273,28 @@ def _check_intrinsics(K: np.ndarray) -> None:
         raise CalibrationError(f"'K[2]' (bottom row) must be [0, 0, 1], got {_row(K[2])}")
     if not abs(K[1, 0]) <= TOLERANCE:
         raise CalibrationError(f"'K[1][0]' must be 0 (K is upper triangular), got {K[1, 0]}")
+    lo, hi = FOCAL_RANGE
+    side = max(width, height)
+    for at in ((0, 0), (1, 1)):
+        _within("K", K, at, lo * side, hi * side,
+                f"pixels: {lo:g} to {hi:g} times the larger of 'width' {width} and 'height' {height}")
+    _within("K", K, (0, 2), -width, 2 * width, f"pixels: -1 to 2 times 'width' {width}")
+    _within("K", K, (1, 2), -height, 2 * height, f"pixels: -1 to 2 times 'height' {height}")
+    _within("K", K, (0, 1), -K[0, 0], K[0, 0], "pixels: at most fx in size")
+
+
+def _check_distortion(dist: np.ndarray) -> None:
+    for i in range(5):
+        _within("dist", dist, (i,), -MAX_DISTORTION, MAX_DISTORTION, "k1, k2, p1, p2, k3 each")
+
+
+def _within(name: str, arr: np.ndarray, at: tuple[int, ...], lo: float, hi: float,
+            unit: str = "") -> None:
+    """A ``CalibrationError`` naming element ``at`` of field ``name``, its value and the
+    range, unless the value lies in [lo, hi]."""
+    if not lo <= arr[at] <= hi:
+        what = f" ({unit})" if unit else ""
+        raise CalibrationError(f"{_element(name, at)} must be {lo:g} to {hi:g}{what}, got {arr[at]}")
 
 
 def _check_pose(T: np.ndarray, name: str = "T_world_camera") -> None:
@@ -277,6 +309,8 @@ def _check_pose(T: np.ndarray, name: str = "T_world_camera") -> None:
     if not np.linalg.det(R) > 0:  # orthonormal, so det is -1: a mirror image, not a rotation
         raise CalibrationError(f"'{name}' rotation (top-left 3x3) is a reflection: "
                                "det = -1, must be +1")
+    for i in range(3):
+        _within(name, T, (i, 3), -MAX_TRANSLATION, MAX_TRANSLATION, "metres, the translation")
 
 
 def _is_int(x: object) -> bool:

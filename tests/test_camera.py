@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
+import itertools
 import json
 import math
 import re
@@ -93,6 +95,25 @@ BAD = [
     ("boolean height", _with(("height",), True), r"'height' must be an integer"),
     ("string width", _with(("width",), "640"), r"'width' must be an integer .*got '640'"),
     ("no K", {k: v for k, v in _valid().items() if k != "K"}, r"missing key 'K'"),
+    # finite but out of range (each crashed or warned in `cell detect` before it was refused)
+    ("huge fx", _with(("K", 0, 0), 1e300),
+     r"'K\[0\]\[0\]' \(fx\) must be 0.64 to 640000 \(pixels: 0.001 to 1000 times the larger of "
+     r"'width' 640 and 'height' 480\), got 1e\+300"),
+    ("tiny fx", _with(("K", 0, 0), 1e-300), r"'K\[0\]\[0\]' \(fx\) must be 0.64 to 640000 .*got 1e-300"),
+    ("huge fy", _with(("K", 1, 1), 1e7), r"'K\[1\]\[1\]' \(fy\) must be 0.64 to 640000 .*got 10000000.0"),
+    ("huge cx", _with(("K", 0, 2), 1e300),
+     r"'K\[0\]\[2\]' \(cx\) must be -640 to 1280 \(pixels: -1 to 2 times 'width' 640\), got 1e\+300"),
+    ("cy far above", _with(("K", 1, 2), -481.0),
+     r"'K\[1\]\[2\]' \(cy\) must be -480 to 960 \(pixels: -1 to 2 times 'height' 480\), got -481.0"),
+    ("huge skew", _with(("K", 0, 1), -1e300),
+     r"'K\[0\]\[1\]' \(skew\) must be -659.395 to 659.395 .*got -1e\+300"),
+    ("huge distortion", _with(("dist", 2), -1e300),
+     r"'dist\[2\]' must be -100 to 100 \(k1, k2, p1, p2, k3 each\), got -1e\+300"),
+    ("large k3", _with(("dist", 4), 100.5), r"'dist\[4\]' must be -100 to 100 .*got 100.5"),
+    ("far camera", _with(("T_world_camera", 0, 3), 1e300),
+     r"'T_world_camera\[0\]\[3\]' must be -100 to 100 \(metres, the translation\), got 1e\+300"),
+    ("deep camera", _with(("T_world_camera", 2, 3), -100.01),
+     r"'T_world_camera\[2\]\[3\]' must be -100 to 100"),
 ]
 
 
@@ -116,6 +137,41 @@ def test_the_constructor_checks_too():
         CameraModel(np.float64(640), 480, np.array(v["K"]), np.zeros(5), np.eye(4))
     cam = CameraModel(np.int64(640), 480, np.array(v["K"]), np.zeros((1, 5)), np.eye(4))  # OpenCV's dist
     assert type(cam.width) is int and cam.dist.shape == (5,)
+
+
+EDGES = [  # each range's ends are inside it
+    ("K", 0, 0, 0.64), ("K", 1, 1, 640000.0), ("K", 0, 2, -640.0), ("K", 0, 2, 1280.0),
+    ("K", 1, 2, -480.0), ("K", 1, 2, 960.0), ("K", 0, 1, F), ("K", 0, 1, -F),
+    ("dist", 0, -100.0), ("dist", 3, 100.0),
+    ("T_world_camera", 0, 3, -100.0), ("T_world_camera", 2, 3, 100.0),
+]
+
+
+@pytest.mark.parametrize("edge", EDGES, ids=[str(e) for e in EDGES])
+def test_the_ends_of_each_range_are_valid(edge):
+    *path, value = edge
+    model = CameraModel.from_dict(_with(tuple(path), value))
+    assert model.to_dict() == CameraModel.from_dict(model.to_dict()).to_dict()
+
+
+def _scenario_bounds(cls, name: str) -> tuple:
+    meta = {f.name: f.metadata for f in dataclasses.fields(cls)}[name]
+    return meta["lo"], meta["hi"]
+
+
+def test_every_camera_a_scenario_can_make_is_valid():
+    """The simulator's cameras (``true_camera_model``: f from the field of view, the
+    principal point at the centre) at the ends of the scenario's ranges, the wrist camera's
+    lens too, with the widest distortion, and poses from the cell's layout."""
+    from cell.scenario import CameraSettings, SensorSettings
+
+    sides = _scenario_bounds(CameraSettings, "width")
+    fovys = (*_scenario_bounds(CameraSettings, "fovy"), 50.0)  # 50: the wrist camera's
+    k = max(abs(b) for b in _scenario_bounds(SensorSettings, "distortion"))
+    for (w, h), fovy, sign in itertools.product(itertools.product(sides, sides), fovys, (-1, 1)):
+        f = 0.5 * h / math.tan(math.radians(fovy) / 2)
+        K = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1]])
+        CameraModel(w, h, K, np.full(5, sign * k), np.array(_valid()["T_world_camera"]))
 
 
 def test_rotation_tolerance_is_as_stated():

@@ -2,9 +2,10 @@
 
 A benchmark prints ratios measured in one run (our code against a baseline or a physical
 bound) plus absolute figures for information; ``--json`` prints one JSON object instead.
-Each module also has ``parser() -> argparse.ArgumentParser`` (cheap: no MuJoCo or OpenCV
-import), which ``cell bench --help`` lists. Option values are checked by the parser (the
-``int_in`` / ``float_in`` types below): a bad one is one error line, exit status 2. No
+Each module also has ``parser() -> argparse.ArgumentParser`` (a :class:`cell.options.Parser`,
+whose error line echoes the user's strings escaped; cheap: no MuJoCo or OpenCV import), which
+``cell bench --help`` lists. Option values are checked by the parser (the ``int_in`` /
+``float_in`` types below): a bad one is one error line, exit status 2. No
 figure is ever NaN: a figure with no samples is ``None`` (``null`` in JSON, ``-`` in a
 table).
 """
@@ -15,6 +16,7 @@ import importlib
 import math
 import sys
 
+from cell.config import escape
 from cell.options import float_in, int_in  # (re-exported: the benchmarks' option types)
 
 __all__ = ["BENCHMARKS", "fmt", "float_in", "int_in", "main"]
@@ -60,7 +62,7 @@ def main(argv: list[str]) -> int:
         return 2
     name = argv[0]
     if name not in BENCHMARKS:
-        print(f"{_USAGE}\ncell bench: error: unknown benchmark '{name}'; valid: "
+        print(f"{_USAGE}\ncell bench: error: unknown benchmark '{escape(name)}'; valid: "
               f"{', '.join(BENCHMARKS)}", file=sys.stderr)
         return 2
     return int(importlib.import_module(BENCHMARKS[name]).main(argv[1:]) or 0)

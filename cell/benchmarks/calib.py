@@ -28,6 +28,7 @@ import numpy as np
 
 from cell.benchmarks import fmt, int_in
 from cell.errors import CellError
+from cell.options import Parser
 
 __all__ = ["AIM", "REQUIRED", "SEED_BASE", "SETUPS", "main", "parser", "run"]
 
@@ -167,7 +168,7 @@ def _print(report: dict) -> None:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = Parser(
         prog="cell bench calib",
         description="both cameras' calibrations (cell calibrate --camera all) against the simulator's "
         "ground truth: default, with lens distortion, with joint-reading noise")

@@ -31,6 +31,7 @@ import numpy as np
 from cell.benchmarks import float_in, fmt, int_in
 from cell.catalogue import KINDS
 from cell.errors import CellError
+from cell.options import Parser
 from cell.scenario import scenario_from_dict
 
 __all__ = ["MAX_POSES", "main", "parser", "run_kind"]
@@ -124,7 +125,7 @@ def _mean(values: list[float]) -> float | None:
 
 
 def parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
+    ap = Parser(
         prog="cell bench pick",
         description="the robot alone: pick-and-place cycles from ground-truth poses, per part kind")
     ap.add_argument("--json", action="store_true", help="print one JSON object")

@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 from cell.benchmarks import fmt, int_in
+from cell.options import Parser
 from cell.scenario import scenario_from_dict
 
 __all__ = ["MAX_REPEATS", "main", "parser", "run"]
@@ -199,8 +200,7 @@ def _print(result: dict) -> None:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="cell bench render",
-                                description="rendering and physics speed of the cell")
+    p = Parser(prog="cell bench render", description="rendering and physics speed of the cell")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--repeats", type=int_in(1, MAX_REPEATS), default=None, metavar="N",
                    help=f"frames per measurement, 1 to {MAX_REPEATS} (default 30; 3 with --quick)")

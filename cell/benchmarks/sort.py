@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from cell.benchmarks import fmt, int_in
+from cell.options import Parser
 
 __all__ = ["REQUIRED", "SCENARIOS", "SEED_BASE", "main", "parser", "run"]
 
@@ -112,8 +113,7 @@ def _pct(value: float | None) -> float | None:
 
 
 def parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="cell bench sort",
-                                 description="the sort job closed loop on every sort scenario")
+    ap = Parser(prog="cell bench sort", description="the sort job closed loop on every sort scenario")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--quick", action="store_true", help="3 parts per scenario (smoke test)")
     ap.add_argument("--parts", type=int_in(1, 200), default=None, metavar="N",

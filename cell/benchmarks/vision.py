@@ -32,6 +32,7 @@ import numpy as np
 
 from cell.benchmarks import fmt, int_in
 from cell.catalogue import KINDS, LIGHTING_PRESETS
+from cell.options import Parser
 from cell.scenario import scenario_from_dict
 from cell.vision.detector import PartDetector, StepTimes
 from cell.vision.settings import VisionSettings
@@ -398,7 +399,7 @@ def _print(report: dict) -> None:
 
 
 def parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="cell bench vision",
         description="the part detector scored against the simulator's ground truth, per lighting "
         "preset")

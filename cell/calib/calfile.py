@@ -16,7 +16,8 @@ origin with its axes aligned (``cell.sim.layout.ARM_BASE``, a surveyed transform
 cell, not a calibrated one), so a fixed camera's ``T_world_camera`` is its
 ``T_base_camera``. Loading checks everything: the schema and version, each key
 (missing, unknown, or both poses), the camera fields as :class:`cell.camera.CameraModel`
-checks them (finite, shapes, fx and fy > 0, rotations orthonormal with det +1), ``rms``
+checks them (finite, shapes, focal lengths, principal point, distortion and translation
+in their ranges, rotations orthonormal with det +1), ``rms``
 finite and >= 0, names, method and scenario printable text, ``seed`` an integer >= 0.
 A failure is a ``CalibrationError`` that names the file, the camera and the field.
 Writing goes to a temporary file beside the target, is flushed to disk (``fsync``), read

@@ -7,7 +7,8 @@ camera (a fixed camera: a wrist camera's pose depends on the arm's, which an ima
 does not carry). Detector
 settings come from the ``[vision]`` section of ``--scenario FILE`` (defaults without
 one), then ``--set key=value`` overrides: ``vision.segmentation=otsu``, or simply
-``segmentation=otsu`` (a key of the vision section needs no prefix).
+``segmentation=otsu`` (a key of the vision section needs no prefix). ``--set`` takes
+vision settings only: a key of another section (``parts.count``) is refused.
 
 Parts are looked for on the belt, in the camera file's world frame (the cell's): on the
 plane ``vision.plane_z`` high, between world y = ``vision.belt_y`` (a part's centre at
@@ -16,7 +17,6 @@ least 4 mm inside); a camera of another set-up needs both set.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import io
@@ -36,7 +36,9 @@ from PIL import Image, UnidentifiedImageError
 
 from cell.calib.calfile import SCHEMA
 from cell.camera import CameraModel, read_json_file
-from cell.errors import CalibrationError, VisionError
+from cell.config import escape, override_source
+from cell.errors import CalibrationError, ScenarioError, VisionError
+from cell.options import Parser
 from cell.scenario import load_scenario, scenario_from_dict
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
@@ -44,10 +46,12 @@ from cell.vision.settings import VisionSettings
 __all__ = ["MAX_PIXELS", "main"]
 
 MAX_PIXELS = 50_000_000  # the largest image decoded (8K is 33 Mpx): bigger is refused unread
+_VISION_KEYS = tuple(sorted(f.name for f in dataclasses.fields(VisionSettings)))  # what --set takes
+_KEY_SHOWN = 60  # characters of a refused --set key echoed in its message
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+def _parser() -> Parser:
+    p = Parser(
         prog="cell detect", description=__doc__.splitlines()[0],
         epilog="Parts are looked for on the belt, in the camera file's world frame (the cell's): "
         "on the plane vision.plane_z high, between world y = vision.belt_y (a part's centre at least "
@@ -61,15 +65,28 @@ def _parser() -> argparse.ArgumentParser:
                    help="the camera to use from a calibration file (cell calibrate --out)")
     p.add_argument("--scenario", default=None, help="scenario TOML whose [vision] section to use")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a vision setting (vision.KEY=VALUE or KEY=VALUE); repeatable")
+                   help="override a vision setting (KEY=VALUE or vision.KEY=VALUE; repeatable), KEY one "
+                   f"of: {', '.join(_VISION_KEYS)}")
     p.add_argument("--json", action="store_true", help="print the detections as JSON")
     return p
 
 
 def _qualify(assignment: str) -> str:
+    """A ``--set`` of a vision setting as the scenario's key: ``KEY=VALUE`` becomes
+    ``vision.KEY=VALUE``; ``vision.KEY=VALUE`` is kept (the scenario checks KEY and the
+    value). Text without ``=``, or the key of any other section, is a ``ScenarioError``."""
+    where = override_source(assignment)
+    if "=" not in assignment:
+        raise ScenarioError(f"{where}: expected KEY=VALUE, e.g. --set segmentation=otsu")
     key = assignment.partition("=")[0].strip()
-    names = {f.name for f in dataclasses.fields(VisionSettings)}
-    return f"vision.{assignment.strip()}" if key in names else assignment
+    if key in _VISION_KEYS:
+        return f"vision.{assignment.strip()}"
+    if key == "vision" or key.startswith("vision."):
+        return assignment
+    shown = escape(key) if len(key) <= _KEY_SHOWN else escape(key[: _KEY_SHOWN - 3]) + "..."
+    raise ScenarioError(f"{where}: key '{shown}' is not a vision setting; cell detect --set "
+                        f"takes keys of the [vision] section only (KEY=VALUE or vision.KEY=VALUE), "
+                        f"KEY one of: {', '.join(_VISION_KEYS)}")
 
 
 def main(argv: list[str]) -> int:

@@ -64,6 +64,34 @@ def test_a_bad_option_is_one_error_line_and_exit_2(args, option):
     assert "parts.count" not in r.stderr and "nan" not in r.stderr.lower().replace("'nan'", "")
 
 
+ESC = "\x1b[31mX\n"  # a user's terminal escape and line break: each error line shows them escaped
+
+
+@pytest.mark.parametrize("args", [
+    *([name, f"--{ESC}"] for name in ("render", "vision", "pick", "calib", "sort", "sweep")),
+    *([name, ESC] for name in ("render", "vision", "pick", "calib", "sort", "sweep")),  # extra argument
+    ["vision", "--presets", ESC],
+    ["vision", "--presets", f"front,{ESC}"],
+    ["calib", "--setups", ESC],
+    ["pick", "--kinds", ESC],
+    ["sort", "--scenarios", ESC],
+    ["calib", "--set", f"{ESC}=1"],
+    [ESC],
+], ids=lambda args: " ".join(args).encode("unicode_escape").decode())
+def test_option_errors_print_the_users_text_escaped(args, capsys):
+    from cell.cli import main as cell_main
+
+    try:
+        code = cell_main(["bench", *args])
+    except SystemExit as exc:  # argparse's exit
+        code = exc.code
+    out, err = capsys.readouterr()
+    assert code == 2 and out == "", (code, err)
+    errors = [ln for ln in err.splitlines() if "error:" in ln]
+    assert len(errors) == 1 and errors[0].startswith("cell bench"), err
+    assert "\x1b" not in err and r"\x1b[31mX" in errors[0], errors[0]  # (lists drop the \n)
+
+
 def test_list_options_name_their_valid_choices():
     r = _cell("bench", "pick", "--kinds")
     assert "washer, hex_nut, square_nut, bolt, l_bracket, disc" in r.stderr

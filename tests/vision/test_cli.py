@@ -130,6 +130,16 @@ BAD_MODELS = {  # one field of the snapshot's camera.json changed: the message n
     "K 1..9": ({"K": [[1, 2, 3], [4, 5, 6], [7, 8, 9]]}, "'K[2]' (bottom row)"),
     "fractional width": ({"width": 640.5}, "'width'"),
     "zero focal length": ({"K": [[0, 0, 319.5], [0, 659.4, 239.5], [0, 0, 1]]}, "'K[0][0]' (fx)"),
+    # finite but out of range: a traceback (ZeroDivisionError, NaN to int) or a numpy warning before
+    "huge focal length": ({"K": [[1e300, 0, 319.5], [0, 659.4, 239.5], [0, 0, 1]]},
+                          "'K[0][0]' (fx) must be 0.64 to 640000 (pixels"),
+    "tiny focal length": ({"K": [[1e-300, 0, 319.5], [0, 659.4, 239.5], [0, 0, 1]]},
+                          "'K[0][0]' (fx) must be 0.64 to 640000"),
+    "huge principal point": ({"K": [[659.4, 0, 1e300], [0, 659.4, 239.5], [0, 0, 1]]},
+                             "'K[0][2]' (cx) must be -640 to 1280 (pixels"),
+    "huge distortion": ({"dist": [0, 0, -1e300, 0, 0]}, "'dist[2]' must be -100 to 100"),
+    "far camera": ({"T_world_camera": [[1, 0, 0, 1e300], [0, -1, 0, 0.45], [0, 0, -1, 0.48],
+                                       [0, 0, 0, 1]]}, "'T_world_camera[0][3]' must be -100 to 100 (metres"),
 }
 
 
@@ -138,6 +148,64 @@ def test_invalid_camera_models_exit_2_naming_the_field(change, field, snapshot, 
     cam = _camera_variant(snapshot, tmp_path, **change)
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", cam]) == 2
     _one_error_line(capfd, cam, field)
+
+
+_DOWN = [[1, 0, 0, 0], [0, -1, 0, 0.45], [0, 0, -1, 0.48], [0, 0, 0, 1]]  # the overhead camera's pose
+EDGE_CAMERAS = {  # valid models at the ends of the ranges: each runs, or is one error line
+    "widest lens": {"K": [[0.64, 0, 319.5], [0, 0.64, 239.5], [0, 0, 1]]},
+    "narrowest lens": {"K": [[640000, 0, 319.5], [0, 640000, 239.5], [0, 0, 1]]},
+    "strongest distortion": {"dist": [100, 100, 100, 100, 100]},
+    "strongest negative distortion": {"dist": [-100, -100, -100, -100, -100]},
+    "distortion folding the principal point": {"K": [[5, 5, 0], [0, 0.65, -480], [0, 0, 1]],
+                                               "dist": [0, 0, 0, -100, 0]},  # a NaN to int before
+    "farthest camera": {"T_world_camera": [[1, 0, 0, 100], [0, -1, 0, -100], [0, 0, -1, 100], [0, 0, 0, 1]]},
+    "camera looking along the plane": {"T_world_camera": [[1, 0, 0, 0], [0, 0, 1, 0.45],
+                                                          [0, -1, 0, 0.48], [0, 0, 0, 1]]},
+    "camera below the plane": {"T_world_camera": [*_DOWN[:2], [0, 0, -1, -100], _DOWN[3]]},
+}
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # a numpy warning would reach stderr
+@pytest.mark.parametrize("change", EDGE_CAMERAS.values(), ids=EDGE_CAMERAS.keys())
+def test_cameras_at_the_ends_of_the_ranges_give_output_or_one_error_line(change, snapshot, tmp_path,
+                                                                          capfd):
+    cam = _camera_variant(snapshot, tmp_path, **change)
+    code = cell_main(["detect", str(snapshot / "rgb.png"), "--camera", cam, "--json"])
+    if code == 2:
+        assert "camera model: " in _one_error_line(capfd)
+    else:
+        out, err = capfd.readouterr()
+        assert code == 0 and err == "", err
+        json.loads(out, parse_constant=_no_constants)
+
+
+@pytest.mark.parametrize("extra", [["--\x1b[31mx"], ["extra\x1b]0;title\x07"], ["--json", "--\x1b[2J"]])
+def test_option_errors_are_printed_escaped(extra, snapshot, capfd):
+    with pytest.raises(SystemExit) as exit_:
+        cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"), *extra])
+    out, err = capfd.readouterr()
+    assert exit_.value.code == 2 and out == "" and err.startswith("usage: cell detect")
+    errors = [ln for ln in err.splitlines() if "error:" in ln]
+    assert len(errors) == 1 and "\x1b" not in err and "\x07" not in err, err
+    assert "unrecognized arguments: " + extra[-1].encode("unicode_escape").decode() in errors[0]
+
+
+@pytest.mark.parametrize("assignment", ["parts.count=5", "camera.width=64", "seed=3", "bogus=1",
+                                        "\x1b[31m.x=1"])
+def test_set_takes_vision_settings_only(assignment, snapshot, capfd):
+    code = cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"),
+                      "--set", assignment])
+    assert code == 2
+    key = assignment.partition("=")[0].encode("unicode_escape").decode()
+    line = _one_error_line(capfd, f"key '{key}' is not a vision setting", "[vision] section",
+                           "segmentation, shadow_chroma")
+    assert "\x1b" not in line
+
+
+def test_set_without_equals_gives_a_vision_example(snapshot, capfd):
+    assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(snapshot / "camera.json"),
+                      "--set", "segmentation"]) == 2
+    _one_error_line(capfd, "--set segmentation: expected KEY=VALUE, e.g. --set segmentation=otsu")
 
 
 def _refuse_decoding(*args, **kwargs):

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from cell.camera import CameraModel
+from cell.errors import VisionError
 from cell.vision.steps.outlines import Outline
 
 __all__ = ["Footprint", "TablePlane", "describe"]
@@ -114,7 +115,13 @@ class _Rays:
 
 
 class TablePlane:
-    """One camera's pixel rays onto horizontal planes (world z up, metres)."""
+    """One camera's pixel rays onto horizontal planes (world z up, metres).
+
+    A camera model whose rays at the principal point meet the plane at no finite, nonzero
+    spacing (a lens distortion that folds the image there, so that ``cv2.undistortPoints``
+    finds no ray; a ray along the plane) is a ``VisionError``. Elsewhere a pixel without a
+    ray gets a non-finite slope, which the steps after refuse or leave out.
+    """
 
     def __init__(self, camera: CameraModel, plane_z: float) -> None:
         self.camera = camera
@@ -125,7 +132,13 @@ class TablePlane:
         self._nadir = nadir[:2] / nadir[2] if nadir[2] > 1e-9 else None
         centre = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])
         xy = self.points(centre, np.zeros(2))
-        self.m_per_px = float(np.linalg.norm(xy[1] - xy[0]))  # at the image centre
+        with np.errstate(invalid="ignore", over="ignore"):  # inf - inf: refused below
+            self.m_per_px = float(np.linalg.norm(xy[1] - xy[0]))  # at the image centre
+        if not 0 < self.m_per_px < math.inf:
+            raise VisionError(f"camera model: its rays at the principal point ({centre[0, 0]:g}, "
+                              f"{centre[0, 1]:g}) meet the plane z = {plane_z:g} m {self.m_per_px:g} m "
+                              "apart per pixel: it must look at the plane, and its lens distortion "
+                              "'dist' must not fold the image there")
 
     def _slopes(self, uv: np.ndarray) -> np.ndarray:
         """(N, 2) xy change of each pixel's ray per metre it drops."""
@@ -136,12 +149,14 @@ class TablePlane:
         else:
             norm = cv2.undistortPoints(uv, self.camera.K, None)
         rays = norm.reshape(-1, 2) @ self._R[:, :2].T + self._R[:, 2]  # R @ (x, y, 1)
-        return rays[:, :2] / -rays[:, 2:3]
+        with np.errstate(divide="ignore", invalid="ignore"):  # a ray along the plane: inf
+            return rays[:, :2] / -rays[:, 2:3]
 
     def points(self, uv: np.ndarray, height: np.ndarray | float) -> np.ndarray:
         """Where pixels ``uv`` (N, 2) meet the planes ``height`` (m) above the table."""
         drop = self._o[2] - (self.plane_z + np.asarray(height, dtype=np.float64))
-        return self._o[:2] + self._slopes(uv) * np.reshape(drop, (-1, 1))
+        with np.errstate(invalid="ignore"):  # a ray along the plane (inf) from its height: nan
+            return self._o[:2] + self._slopes(uv) * np.reshape(drop, (-1, 1))
 
     def rays(self, points: np.ndarray, normals: np.ndarray) -> _Rays:
         """The rays of an outline's points (N, 2) and which face away from the nadir."""

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cell.camera import CameraModel
+from cell.errors import VisionError
 from cell.vision.geometry import pixel_to_table
 from cell.vision.steps.footprint import TablePlane, describe
 from tests.vision.steps import drawn
@@ -58,3 +59,19 @@ def test_top_edges_face_away_from_the_nadir():
     rays = plane.rays(pts, np.array([[1.0, 0.0], [-1.0, 0.0]]))  # right of the nadir
     assert rays.away.tolist() == [True, False]
     assert plane.m_per_px == pytest.approx(1 / (drawn.PX_PER_MM * 1e3), rel=1e-9)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize(("R", "dist"), [
+    ([[1, 0, 0], [0, 0, 1], [0, -1, 0]], [0.0] * 5),  # looks along the plane: inf - inf before
+    ([[1, 0, 0], [0, -1, 0], [0, 0, -1]], [0.0, 0.0, 0.0, -100.0, 0.0]),  # folds the image there
+], ids=["along the plane", "folding distortion"])
+def test_a_camera_without_rays_at_its_principal_point_is_a_vision_error(R, dist):
+    cam = drawn.camera()
+    T = cam.T_world_camera.copy()
+    T[:3, :3] = R
+    K = np.array([[5.0, 5.0, 0.0], [0.0, 0.65, -cam.height], [0.0, 0.0, 1.0]]) if any(dist) else cam.K
+    cam = CameraModel(cam.width, cam.height, K, np.array(dist), T)
+    with pytest.raises(VisionError, match=r"^camera model: its rays at the principal point \(.*\) meet "
+                       r"the plane z = 0.08 m nan m apart per pixel: it must look at the plane"):
+        TablePlane(cam, 0.08)

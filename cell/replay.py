@@ -24,9 +24,11 @@ Parts waiting for their turn, and parts caught past the belt's end, float off st
 escaped where they hold a ``/`` (``arm/base`` is one path part).
 
 The file is written to a temporary file beside ``path`` and renamed into place by
-``close``; ``abort`` (or an exception inside a ``with`` block) discards it, so a failed
-run never leaves a partial recording. The recording id follows from the scenario's name
-and seed, so reruns of a scenario are the same recording to the viewer.
+``close`` (``finish`` then ``commit``: a caller with other files to write finishes the
+recording, writes them, and commits it last); ``abort`` (or an exception inside a
+``with`` block) discards it, so a failed run never leaves a partial recording. The
+recording id follows from the scenario's name and seed, so reruns of a scenario are the
+same recording to the viewer.
 """
 
 from __future__ import annotations
@@ -94,6 +96,7 @@ class Replay:
         self._last = np.full((len(self._moving), 7), np.inf)  # the poses last logged
         self._states: list[tuple[float, np.ndarray, np.ndarray]] = []  # (t, bodies, poses) to send
         self._preset = ""
+        self._finished = False
         try:
             self._rec.save(self._tmp)
             self._rec.set_log_time_enabled(False)  # sim_time is the one timeline
@@ -116,8 +119,8 @@ class Replay:
 
     @property
     def closed(self) -> bool:
-        """True after ``close`` or ``abort``."""
-        return not self._finalizer.alive
+        """True after ``close``, ``finish`` or ``abort``: nothing more can be logged."""
+        return self._finished or not self._finalizer.alive
 
     def log_state(self, t: float, world: World) -> None:
         """The poses of the bodies that move (arm links, parts) at simulated time ``t``;
@@ -165,6 +168,12 @@ class Replay:
 
     def close(self) -> None:
         """Flush everything, finish the file and move it to ``path`` (atomically)."""
+        self.finish()
+        self.commit()
+
+    def finish(self) -> None:
+        """Flush everything and finish the file, still under its temporary name: ``commit``
+        moves it to ``path``, ``abort`` discards it (as does forgetting it)."""
         self._at(None)
         try:
             self._send_states()
@@ -175,10 +184,20 @@ class Replay:
             with open(self._tmp, "rb") as f:
                 os.fsync(f.fileno())
             os.chmod(self._tmp, file_mode())  # as open() would make it, not 0600
-            os.replace(self._tmp, self.path)
         except Exception as exc:
             self._finalizer()
             raise JobError(f"replay {str(self.path)!r}: cannot finish it: {exc}") from exc
+        self._finished = True
+
+    def commit(self) -> None:
+        """Move the finished file to ``path`` (atomically)."""
+        if not self._finished or not self._finalizer.alive:
+            raise JobError(f"replay {str(self.path)!r}: only a finished replay can be committed")
+        try:
+            os.replace(self._tmp, self.path)
+        except OSError as exc:
+            self._finalizer()
+            raise JobError(f"replay {str(self.path)!r}: cannot move it into place: {exc}") from exc
         self._finalizer.detach()
 
     def abort(self) -> None:

@@ -152,6 +152,19 @@ def test_close_moves_the_file_into_place_atomically(tmp_path, scene):
         rep.log_state(2.0, scene[0])
 
 
+def test_a_finished_replay_waits_for_commit_or_abort(tmp_path, scene):
+    path = tmp_path / "r.rrd"
+    kept, dropped = Replay(path, scene[0]), Replay(tmp_path / "d.rrd", scene[0])
+    for rep in (kept, dropped):
+        rep.finish()
+        assert rep.closed
+    assert not path.exists() and len(list(tmp_path.iterdir())) == 2  # finished, not in place
+    kept.commit()
+    dropped.abort()
+    assert [p.name for p in tmp_path.iterdir()] == ["r.rrd"]
+    assert _cli("rrd", "verify", str(path)).returncode == 0
+
+
 def test_abort_leaves_the_old_file_and_no_temporary(tmp_path, scene):
     path = tmp_path / "r.rrd"
     path.write_bytes(b"old")

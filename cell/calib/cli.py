@@ -57,6 +57,13 @@ def _check_target(arg: str, option: str) -> Path:
     return check_output_file(arg, option, error=CalibrationError)
 
 
+def _check_apart(out: Path, report: Path) -> None:
+    """``--out`` and ``--report`` must be two files (the folder entries a rename replaces)."""
+    if out.parent.resolve() / out.name == report.parent.resolve() / report.name:
+        raise CalibrationError(f"--out {printable(repr(str(out)))} and --report "
+                               f"{printable(repr(str(report)))} are the same file; name two files")
+
+
 def _progress(stream) -> object:
     if not stream.isatty():
         return None
@@ -74,7 +81,9 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     overrides = list(args.overrides) + ([f"calibration.poses={args.poses}"] if args.poses else [])
     out = _check_target(args.out, "--out")
-    report_path = _check_target(args.report, "--report") if args.report else None
+    report_path = _check_target(args.report, "--report") if args.report is not None else None
+    if report_path is not None:
+        _check_apart(out, report_path)
     if args.scenario:
         scenario = load_scenario(args.scenario, overrides=overrides, seed=args.seed)
     else:
@@ -83,10 +92,10 @@ def main(argv: list[str]) -> int:
             scenario = dataclasses.replace(scenario, seed=args.seed)
     run = run_calibration(scenario, camera=args.camera, progress=_progress(sys.stderr),
                           touch=not args.no_touch)
+    report_text = json.dumps(run.report, indent=2, allow_nan=False) + "\n"  # (made before a write)
     write_calibration(out, run.calibration)
     if report_path is not None:
-        atomic_write_text(report_path, json.dumps(run.report, indent=2, allow_nan=False) + "\n",
-                          kind="report file")
+        atomic_write_text(report_path, report_text, kind="report file")
     print(f"scenario {printable(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
           f"joint noise {scenario.calibration.joint_noise_deg:g} deg")
     for k, (name, camera_report) in enumerate(run.report["cameras"].items()):

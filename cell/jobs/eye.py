@@ -56,7 +56,8 @@ def is_black(image: np.ndarray) -> bool:
 
 class Eye:
     """Captures and detections of ``world``'s overhead camera through ``camera`` (the
-    calibrated model) with ``detector``; ``truth`` also renders the segmentation (for the
+    calibrated model) with ``detector`` (from :func:`~cell.jobs.detectors.load_detector`:
+    a user's is checked there); ``truth`` also renders the segmentation (for the
     report's scoring and the replay, never for a decision). ``timers`` (a dict of
     seconds) collects ``render`` and ``detect`` wall times."""
 

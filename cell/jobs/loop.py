@@ -44,17 +44,19 @@ class SortLoop:
     """One run's state: the cell, the robot, the eye, the records and the timers.
 
     ``replay``: a callable making the run's :class:`~cell.replay.Replay` from the world,
-    or None; ``progress(done, total, note)`` follows the parts."""
+    or None; ``progress(done, total, note)`` follows the parts; ``detector``: the one
+    :func:`~cell.jobs.detectors.load_detector` made (default: made here)."""
 
     def __init__(self, scenario: Scenario, camera: CameraModel, *, replay: object | None,
-                 progress: Progress | None) -> None:
+                 progress: Progress | None, detector: object | None = None) -> None:
         from cell.robot.pick import PickPlace
         from cell.sim import World
 
         t_setup = time.perf_counter()
         self.scenario, self.settings = scenario, scenario.sort
         self.timers = {"setup": 0.0, "physics": 0.0, "render": 0.0, "detect": 0.0, "replay": 0.0}
-        detector = load_detector(scenario.vision)  # (a bad name fails before the cell is built)
+        if detector is None:
+            detector = load_detector(scenario.vision)  # (a bad name fails before the cell is built)
         self.world = World.build(scenario)
         t0 = time.perf_counter()
         self.replay = replay(self.world) if replay else None  # (logs the cell's geometry)

@@ -64,10 +64,12 @@ def draw_detections(image: np.ndarray, detections: list, *, camera: object,
     h = out.shape[0]
     px = camera.K[0, 0] / max(1e-3, camera.T_world_camera[2, 3] - BELT_TOP)  # px per m
     scale = max(1, round(h / 480))
+    big = 4.0 * max(out.shape[:2])  # px: a box no larger than this is drawn (a detector may say 1 km)
     for k, d in enumerate(detections):
         colour = _REJECT if d.partial or (bins and bins[k] == "reject") else _SURE
         u, v = d.centroid
-        rect = ((float(u), float(v)), (d.size[0] * px, d.size[1] * px), -math.degrees(d.yaw))
+        size = (min(d.size[0] * px, big), min(d.size[1] * px, big))
+        rect = ((float(u), float(v)), size, -math.degrees(d.yaw % (2 * math.pi)))
         box = cv2.boxPoints(rect).astype(np.int32)
         cv2.polylines(out, [box], True, colour, scale, cv2.LINE_AA)
         cv2.circle(out, (round(u), round(v)), 2 * scale, colour, -1, cv2.LINE_AA)

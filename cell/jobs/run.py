@@ -7,6 +7,11 @@ beside the report (``<report>.calibration.json``) for the next run to reuse. Wit
 capture with its detections drawn) goes beside it; ``--replay`` writes a rerun recording
 (open it with ``rerun FILE.rrd``). Progress goes to stderr when it is a terminal; the
 summary table to stdout.
+
+Every file the run will write is checked before it starts (each can become a file, no
+two of them, nor ``--calibration``, are the same file) and written only once the run has
+succeeded: all of them made before the first is written, the recording moved into place
+last.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import dataclasses
 import json
 import shutil
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from cell.cli import printable
@@ -70,64 +76,133 @@ def _rerun() -> str:
     return printable(str(beside)) if beside.exists() else "rerun"
 
 
-def _beside(report: Path, name: str) -> Path:
-    return report.with_name(name)
+@dataclass(frozen=True)
+class _Output:
+    """A file the run writes: its ``path`` and ``what`` names it to the user (an option,
+    or a file written beside one)."""
+
+    what: str
+    path: Path
+
+
+@dataclass(frozen=True)
+class _Outputs:
+    """The files a run writes (None: not written)."""
+
+    report: _Output | None = None
+    replay: _Output | None = None
+    calibration: _Output | None = None  # beside the report, when this run calibrates
+    image: _Output | None = None  # detections.png, beside the report (else the replay)
+
+    def each(self) -> list[_Output]:
+        return [o for o in (self.report, self.replay, self.calibration, self.image) if o is not None]
+
+
+def _option(arg: str | None, option: str) -> _Output | None:
+    return None if arg is None else _Output(option, check_output_file(arg, option, error=JobError))
+
+
+def _beside(given: _Output, name: str, what: str) -> _Output:
+    what = f"{what} written beside {given.what}"
+    return _Output(what, check_output_file(str(given.path.with_name(name)), what, error=JobError))
+
+
+def _entry(path: Path) -> Path:
+    """The folder entry that writing ``path`` (a rename onto it) replaces."""
+    return path.parent.resolve() / path.name
+
+
+def _outputs(args: argparse.Namespace) -> _Outputs:
+    """The files this run will write, each checked (``check_output_file``), no two of them
+    the same file nor the ``--calibration`` read; a ``JobError`` naming both otherwise."""
+    report, replay = _option(args.report, "--report"), _option(args.replay, "--replay")
+    calibration = image = None
+    if report is not None and args.calibration is None:
+        calibration = _beside(report, report.path.stem + ".calibration.json", "the calibration")
+    if report is not None or replay is not None:
+        image = _beside(report or replay, "detections.png", "detections.png")
+    outputs = _Outputs(report, replay, calibration, image)
+    seen = {_entry(Path(args.calibration)): "--calibration"} if args.calibration else {}
+    for out in outputs.each():
+        if _entry(out.path) in seen:
+            raise JobError(f"{seen[_entry(out.path)]} and {out.what} are the same file "
+                           f"{printable(repr(str(out.path)))}; name different files")
+        seen[_entry(out.path)] = out.what
+    return outputs
 
 
 def main(argv: list[str]) -> int:
     """Run ``cell run`` with ``argv``; 0 on success (a ``CellError`` goes to the caller)."""
     args = _parser().parse_args(argv)
-    report_path = check_output_file(args.report, "--report", error=JobError) if args.report else None
-    replay_path = check_output_file(args.replay, "--replay", error=JobError) if args.replay else None
+    outputs = _outputs(args)
     scenario = load_scenario(args.scenario, overrides=args.overrides, seed=args.seed)
     calibration = None
     if args.calibration is not None:
         from cell.calib.calfile import load_calibration
 
         calibration = load_calibration(args.calibration)  # checked before the long work
-    else:
-        print("no --calibration given: calibrating the overhead camera first", file=sys.stderr)
     from cell.jobs.sort import run_sort
 
     progress = _progress(sys.stderr, "sort", "parts")
     calibrating = _progress(sys.stderr, "calibrate", "views") if calibration is None else None
-    run = run_sort(scenario, calibration=calibration, progress=progress, replay=replay_path,
+    run = run_sort(scenario, calibration=calibration, progress=progress,
+                   replay=outputs.replay.path if outputs.replay else None, commit_replay=False,
                    calibration_progress=calibrating)
     if progress is not None:
         sys.stderr.write("\n")
-    report = run.report
-    report["scenario_file"] = args.scenario
-    report["calibration"]["file"] = args.calibration
-    written = []
-    if report_path is not None:
-        if args.calibration is None:
-            from cell.calib.calfile import write_calibration
-
-            cal_path = _beside(report_path, report_path.stem + ".calibration.json")
-            write_calibration(cal_path, run.calibration)
-            report["calibration"]["file"] = str(cal_path)
-            written.append(cal_path)
-        atomic_write_text(report_path, json.dumps(report, indent=2, allow_nan=False) + "\n",
-                          kind="report", error=JobError)
-        written.append(report_path)
-    folder = report_path or replay_path
-    if folder is not None and run.last is not None:
-        from cell.jobs.policy import choose_bin
-        from cell.jobs.report import draw_detections, encode_png
-
-        dets = run.last.detections
-        image = draw_detections(run.last.image, dets, camera=run.camera,
-                                bins=[choose_bin(d, scenario.sort) for d in dets])
-        png = _beside(folder, "detections.png")
-        atomic_write_bytes(png, encode_png(image), kind="image", error=JobError)
-        written.append(png)
-    if replay_path is not None:
-        written.append(replay_path)
+    try:
+        written = _write(run, args, scenario, outputs)
+    finally:
+        if run.replay is not None:
+            run.replay.abort()  # (nothing left to discard once committed)
     from cell.jobs.report import summary_table
 
-    print(summary_table(report))
+    print(summary_table(run.report))
+    if args.calibration is None:
+        again = (f"; pass --calibration {printable(str(outputs.calibration.path))} to reuse it"
+                 if outputs.calibration else "")
+        print(f"\nno --calibration given: the overhead camera was calibrated first{again}")
     if written:
         print("\nwrote " + ", ".join(printable(str(p)) for p in written))
-    if replay_path is not None:
-        print(f"open the replay with: {_rerun()} {printable(str(replay_path))}")
+    if outputs.replay is not None:
+        print(f"open the replay with: {_rerun()} {printable(str(outputs.replay.path))}")
     return 0
+
+
+def _write(run: object, args: argparse.Namespace, scenario: Scenario, outputs: _Outputs) -> list[Path]:
+    """Write the run's files (each atomically), every one made before the first is
+    written and the recording committed last; the paths written, in order."""
+    report = run.report
+    report["scenario_file"] = args.scenario
+    report["calibration"]["file"] = (str(outputs.calibration.path) if outputs.calibration
+                                     else args.calibration)
+    text = json.dumps(report, indent=2, allow_nan=False) + "\n"
+    image = _detections_png(run, scenario) if outputs.image else None
+    written = []
+    if outputs.calibration is not None:
+        from cell.calib.calfile import write_calibration
+
+        write_calibration(outputs.calibration.path, run.calibration)
+        written.append(outputs.calibration.path)
+    if outputs.report is not None:
+        atomic_write_text(outputs.report.path, text, kind="report", error=JobError)
+        written.append(outputs.report.path)
+    if image is not None:
+        atomic_write_bytes(outputs.image.path, image, kind="image", error=JobError)
+        written.append(outputs.image.path)
+    if run.replay is not None:
+        run.replay.commit()
+        written.append(outputs.replay.path)
+    return written
+
+
+def _detections_png(run: object, scenario: Scenario) -> bytes | None:
+    """The PNG of the last capture that saw parts, its detections drawn; None if none did."""
+    if run.last is None:
+        return None
+    from cell.jobs.policy import choose_bin
+    from cell.jobs.report import draw_detections, encode_png
+
+    dets = run.last.detections
+    return encode_png(draw_detections(run.last.image, dets, camera=run.camera,
+                                      bins=[choose_bin(d, scenario.sort) for d in dets]))

@@ -45,13 +45,16 @@ __all__ = ["SortRun", "overhead_model", "run_sort"]
 @dataclass(frozen=True, eq=False)
 class SortRun:
     """A finished run: the JSON-ready ``report``, the ``last`` capture that saw parts (for
-    ``detections.png``), the calibrated ``camera`` model the job used and the
-    ``calibration`` it came from."""
+    ``detections.png``), the calibrated ``camera`` model the job used, the
+    ``calibration`` it came from and, when ``run_sort`` was told not to commit it, the
+    finished ``replay`` (a :class:`~cell.replay.Replay`) for the caller to ``commit`` or
+    ``abort``."""
 
     report: dict
     last: Capture | None
     camera: CameraModel
     calibration: object
+    replay: object | None = None
 
 
 def overhead_model(calibration: object, scenario: Scenario, *, where: str) -> CameraModel:
@@ -71,17 +74,21 @@ def overhead_model(calibration: object, scenario: Scenario, *, where: str) -> Ca
 
 def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = None,
              progress: Progress | None = None, replay: str | Path | None = None,
-             calibration_progress: Progress | None = None) -> SortRun:
+             commit_replay: bool = True, calibration_progress: Progress | None = None) -> SortRun:
     """Run the sort job of ``scenario``; returns a :class:`SortRun`.
 
     ``calibration``: a ``CalibrationFile``, a path to one, or None to calibrate the
     overhead camera first (its figures go into the report). ``replay``: write a rerun
-    recording there. ``progress(done, total, note)`` follows the parts and
+    recording there; with ``commit_replay`` False it is finished but left under its
+    temporary name, and ``SortRun.replay`` must be committed (or aborted) by the caller
+    once its other outputs are written. ``progress(done, total, note)`` follows the parts and
     ``calibration_progress`` (the same form) the calibration's views.
     """
     from cell.calib.calfile import CalibrationFile, load_calibration
+    from cell.jobs.detectors import load_detector
 
     t_start = time.perf_counter()
+    detector = load_detector(scenario.vision)  # (a bad one fails before the calibration)
     report_cal: dict = {}
     if calibration is None:
         from cell.calib.job import run_calibration
@@ -107,7 +114,7 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
             return Replay(replay, world)
 
     t0 = time.perf_counter()
-    job = SortLoop(scenario, camera, replay=recorder, progress=progress)
+    job = SortLoop(scenario, camera, replay=recorder, progress=progress, detector=detector)
     try:
         if scenario.conveyor.mode == "continuous":
             job.run_continuous()
@@ -119,14 +126,17 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
         if job.replay is not None:
             job.replay.log_metrics(job.world.time, {k: v for k, v in report["metrics"].items()
                                                     if isinstance(v, float)})
-            job.replay.close()
+            job.replay.finish()
+            if commit_replay:
+                job.replay.commit()
     except BaseException:
         if job.replay is not None:
             job.replay.abort()
         raise
     finally:
         job.world.close()
-    return SortRun(report, job.last, camera, calibration)
+    return SortRun(report, job.last, camera, calibration,
+                   replay=job.replay if not commit_replay else None)
 
 
 def _report(job: SortLoop, scenario: Scenario, *, wall: float, calibration: dict) -> dict:

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from cell.errors import JobError
+
 ROOT = Path(__file__).parents[2]
 
 
@@ -30,7 +32,7 @@ def demo(tmp_path_factory):
 def test_run_writes_report_calibration_image_and_replay(demo):
     out, r = demo
     assert r.returncode == 0, r.stderr
-    assert "calibrating the overhead camera first" in r.stderr
+    assert "the overhead camera was calibrated first" in r.stdout
     assert "sort accuracy" in r.stdout and "open the replay with" in r.stdout
     report = json.loads((out / "report.json").read_text())
     assert report["accounting"]["spawned"] == 2
@@ -92,8 +94,9 @@ def test_own_detector_from_examples_runs(tmp_path):
 def test_bad_input_is_one_line_naming_the_culprit(args, culprit, tmp_path):
     r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", *args)
     assert r.returncode == 2
-    last = r.stderr.strip().splitlines()[-1]
+    last = r.stderr.strip().splitlines()[-1]  # (after the usage, for an option)
     assert culprit in last and "Traceback" not in r.stderr, r.stderr
+    assert "no --calibration given" not in r.stderr  # no notice line before the error
 
 
 def test_a_calibration_without_the_overhead_camera_is_refused(demo, tmp_path):
@@ -113,3 +116,74 @@ def test_outputs_get_the_usual_file_mode(demo):
     os.umask(mask)
     for name in ("report.json", "report.calibration.json", "detections.png", "replay.rrd"):
         assert (out / name).stat().st_mode & 0o777 == 0o666 & ~mask, name
+
+
+_EVIL = """
+class Raises:
+    def detect(self, image, camera):
+        raise RuntimeError("boom \\x1b[31mred\\nline")
+"""
+
+
+def test_a_crashing_detector_is_one_escaped_line_and_leaves_no_file(demo, tmp_path):
+    out, _ = demo
+    (tmp_path / "evil_detector.py").write_text(_EVIL)
+    files = tmp_path / "out"
+    files.mkdir()
+    r = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", "--calibration",
+              str(out / "report.calibration.json"), "--set", "vision.detector=evil_detector:Raises",
+              "--report", str(files / "r.json"), "--replay", str(files / "r.rrd"),
+              env={"PYTHONPATH": str(tmp_path)})
+    assert r.returncode == 2, r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert "'evil_detector:Raises'" in line and "RuntimeError: boom \\x1b[31mred\\nline" in line, line
+    assert list(files.iterdir()) == []
+
+
+def _run_here(capsys, *args: str) -> tuple[int, str]:
+    """``cell run`` in this process: (exit status, stderr)."""
+    from cell.cli import main
+
+    code = main(["run", str(ROOT / "scenarios/sort.toml"), "--set", "parts.count=1", *args])
+    return code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("args", "culprit"), [
+    (("--report", "same", "--replay", "sub/../same"), "--report and --replay"),
+    (("--report", "q.json", "--replay", "q.calibration.json"),
+     "--replay and the calibration written beside --report"),
+    (("--report", "q.json", "--replay", "detections.png"), "--replay and detections.png written beside"),
+    (("--report", "detections.png"), "--report and detections.png written beside --report"),
+    (("--calibration", "c.json", "--replay", "sub/../c.json"), "--calibration and --replay"),
+    (("--report", ""), "--report: empty path"),
+    (("--replay", ""), "--replay: empty path"),
+])
+def test_outputs_that_are_one_file_or_empty_are_refused(capsys, monkeypatch, tmp_path, args, culprit):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    code, err = _run_here(capsys, *args)
+    assert code == 2
+    (line,) = err.strip().splitlines()
+    assert culprit in line, line
+    assert [p.name for p in tmp_path.iterdir()] == ["sub"]
+
+
+@pytest.mark.parametrize("folder", ["r.calibration.json", "detections.png"])
+def test_an_unwritable_file_beside_the_report_is_refused_before_the_run(capsys, tmp_path, folder):
+    (tmp_path / folder).mkdir()
+    code, err = _run_here(capsys, "--report", str(tmp_path / "r.json"), "--replay", str(tmp_path / "r.rrd"))
+    assert code == 2 and "is a folder" in err and folder in err, err
+    assert [p.name for p in tmp_path.iterdir()] == [folder]
+
+
+def test_outputs_are_written_only_when_everything_succeeded(capsys, monkeypatch, demo, tmp_path):
+    out, _ = demo
+
+    def fail(image):
+        raise JobError("no PNG today")
+
+    monkeypatch.setattr("cell.jobs.report.encode_png", fail)
+    code, err = _run_here(capsys, "--calibration", str(out / "report.calibration.json"),
+                          "--report", str(tmp_path / "r.json"), "--replay", str(tmp_path / "r.rrd"))
+    assert code == 2 and "no PNG today" in err
+    assert list(tmp_path.iterdir()) == []

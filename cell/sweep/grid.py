@@ -72,20 +72,39 @@ def expand_range(spec: dict, key: str, where: str) -> list[int | float]:
                              f"got {show(count)}")
         if count == 1:
             return [lo]
-        step = (hi - lo) / (count - 1)
-        out = [_tidy(lo + i * step) for i in range(count)]
+        out = [_tidy(v) for v in _spaced(lo, hi, count)]
         out[-1] = hi
         ints = all(isinstance(v, int) for v in (lo, hi)) and all(float(v).is_integer() for v in out)
         return [int(v) for v in out] if ints else [float(v) for v in out]
     step = _number(spec.get("step", 1), f"{what}: 'step'", where)
     if step <= 0:
         raise SweepError(f"{where}: {what}: 'step' must be above 0, got {show(step)}")
-    n = math.floor((hi - lo) / step * (1 + 1e-12) + 1e-9) + 1
+    n = _steps(lo, hi, step)
+    if n is None:
+        raise SweepError(f"{where}: {what} (from {show(lo)} to {show(hi)} in steps of {show(step)}) "
+                         f"holds too many values to count; at most {MAX_AXIS}")
     if n > MAX_AXIS:
         raise SweepError(f"{where}: {what} holds {n} values; at most {MAX_AXIS}")
     if all(isinstance(v, int) for v in (lo, hi, step)):
         return [lo + i * step for i in range(n)]
     return [_tidy(float(lo) + i * float(step)) for i in range(n)]
+
+
+def _steps(lo: int | float, hi: int | float, step: int | float) -> int | None:
+    """The number of values of the range ``lo`` to ``hi`` in steps of ``step`` (``hi``
+    included when a step lands on it within rounding); None when it is too large for a
+    float (``hi - lo`` or ``(hi - lo) / step`` overflows)."""
+    steps = (hi - lo) / step * (1 + 1e-12) + 1e-9
+    return math.floor(steps) + 1 if math.isfinite(steps) else None
+
+
+def _spaced(lo: int | float, hi: int | float, count: int) -> list[float]:
+    """``count`` evenly spaced values from ``lo`` to ``hi``; when ``hi - lo`` overflows a
+    float, interpolated between the ends instead (every value stays finite)."""
+    step = (hi - lo) / (count - 1)
+    if math.isfinite(step):
+        return [lo + i * step for i in range(count)]
+    return [lo * (1 - i / (count - 1)) + hi * (i / (count - 1)) for i in range(count)]
 
 
 def _tidy(value: float) -> float:

@@ -3,15 +3,17 @@
 ``--out DIR`` is created when missing. An existing folder may hold only what a sweep
 writes there (``results.csv``, ``summary.md``, ``*.png`` and the temporary files of an
 interrupted write, which are removed); one holding ``results.csv`` is continued only with
-``--resume``. Plots and the summary are written through a temporary name beside the
-target, fsynced and renamed into place (:func:`write_atomic`), so a reader never sees
-half a file.
+``--resume``; each file this sweep will write that is already there must be a plain file
+(not a folder, a link or a device), checked before any run. Plots and the summary are
+written through a temporary name beside the target, fsynced and renamed into place
+(:func:`write_atomic`), so a reader never sees half a file.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import stat
 from pathlib import Path
 
 from cell.config import escape
@@ -25,8 +27,9 @@ _OUTPUT = re.compile(r"results\.csv|summary\.md|[A-Za-z0-9_.-]+\.png")
 _TEMP = re.compile(r"\.[^/]+\.tmp")
 
 
-def prepare_out(arg: str, *, resume: bool) -> Path:
-    """The output folder ``arg``, checked and created (see the module docstring)."""
+def prepare_out(arg: str, *, resume: bool, files: tuple[str, ...] = (RESULTS,)) -> Path:
+    """The output folder ``arg``, checked and created (see the module docstring); ``files``
+    are the names the sweep will write there."""
     shown = f"--out {escape(repr(arg))}"
     if not arg:
         raise SweepError(f"{shown}: empty path; name the output folder")
@@ -45,6 +48,7 @@ def prepare_out(arg: str, *, resume: bool) -> Path:
             if RESULTS in entries and not resume:
                 raise SweepError(f"{shown}: holds the results of a sweep; pass --resume to finish "
                                  "it, or name a new folder")
+            _check_files(path, [f for f in files if f in entries], files, shown)
             for e in entries:
                 if _TEMP.fullmatch(e):
                     (path / e).unlink(missing_ok=True)
@@ -55,6 +59,26 @@ def prepare_out(arg: str, *, resume: bool) -> Path:
     except OSError as exc:
         raise SweepError(f"{shown}: cannot be used: {escape(exc.strerror or str(exc))}") from None
     return path
+
+
+def _kind(mode: int) -> str | None:
+    """What a file of ``mode`` is when it is not a plain file; None for a plain file."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    return "a link" if stat.S_ISLNK(mode) else "a device, pipe or socket"
+
+
+def _check_files(path: Path, present: list[str], files: tuple[str, ...], shown: str) -> None:
+    """Refuse the first of ``present`` (names of ``files`` already in ``path``) that is not a
+    plain file: the sweep would fail on it after its runs (a folder), or write through it
+    (a link)."""
+    for name in present:
+        kind = _kind(os.lstat(path / name).st_mode)
+        if kind is not None:
+            raise SweepError(f"{shown}: '{escape(name)}' is {kind}, not a file; the sweep writes "
+                             f"{', '.join(files)} there: move it away, or name a new folder")
 
 
 def write_atomic(path: Path, data: bytes) -> None:

@@ -59,6 +59,11 @@ class Columns:
     def names(self) -> tuple[str, ...]:
         return (*FIXED_COLUMNS, *self.params, *self.metrics, *self.timings, "error")
 
+    @property
+    def numbers(self) -> tuple[str, ...]:
+        """The columns that hold a finite number or nothing: the seed and the figures."""
+        return ("seed", *self.metrics, *self.timings)
+
 
 @dataclass(frozen=True)
 class Plan:

@@ -28,7 +28,7 @@ from cell.sweep.spec import load_sweep
 from cell.sweep.worker import Chunk, Outcome, Task
 
 __all__ = ["BACKENDS", "SweepInterrupted", "SweepOptions", "SweepRun", "make_backend", "make_chunks",
-           "run_plan", "run_sweep"]
+           "output_files", "run_plan", "run_sweep"]
 
 BACKENDS = ("local", "ray")
 
@@ -123,7 +123,8 @@ def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | 
     t0 = time.perf_counter()
     own = backend is None
     backend = make_backend(options) if own else backend
-    results, cut = open_results(out / RESULTS, plan.columns.names, {r.run_id for r in plan.runs})
+    results, cut = open_results(out / RESULTS, plan.columns.names, {r.run_id for r in plan.runs},
+                                numbers=plan.columns.numbers)
     todo = [r for r in plan.runs if r.run_id not in results.done]
     by_id = {r.run_id: r for r in todo}
     resumed = len(plan.runs) - len(todo)
@@ -162,4 +163,14 @@ def run_sweep(path: str | Path, *, out: str, options: SweepOptions | None = None
     """Run the sweep file ``path`` into the folder ``out``."""
     options = options or SweepOptions()
     plan = plan_sweep(load_sweep(path))
-    return run_plan(plan, prepare_out(out, resume=options.resume), options)
+    return run_plan(plan, prepare_out(out, resume=options.resume, files=output_files(plan, options)),
+                    options)
+
+
+def output_files(plan: Plan, options: SweepOptions) -> tuple[str, ...]:
+    """The names of the files the sweep writes into its output folder."""
+    if not options.report:
+        return (RESULTS,)
+    from cell.sweep.reports import report_files
+
+    return (RESULTS, *report_files(plan.spec.report))

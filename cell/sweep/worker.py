@@ -3,9 +3,13 @@
 A :class:`Chunk` is some runs of one job with the same scene key; :func:`run_chunk`
 renders the scene once (a worker keeps the last ``SCENES_KEPT`` scenes) and measures each
 run on it, returning one :class:`Outcome` per run. A run that fails on purpose (a
-``CellError``: a detector that does not load, parts that do not fit the view, a pick
-the robot cannot make) is an outcome with its message, so one bad point does not stop a
-long sweep; any other exception is a bug and propagates.
+``CellError``: a detector that does not load or raises, parts that do not fit the view, a
+pick the robot cannot make) is an outcome with its message on one line, escaped, so one
+bad point does not stop a long sweep. Any other exception is a bug in ``cell`` and
+propagates, with a note naming the job and the run: the sweep stops loudly (traceback,
+exit status 1) and keeps its finished rows, so once the bug is fixed ``--resume`` does
+that run and the rest. (Were a bug a failed row, it would hide in the ``error`` column,
+and ``--resume`` would count the run as done and never do it again.)
 
 The same function runs in the local pool's processes and as a Ray task. On first use in
 a process it pins OpenCV to one thread and the software renderer (llvmpipe) to
@@ -23,6 +27,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
+from cell.config import escape
 from cell.errors import CellError
 
 __all__ = ["SCENES_KEPT", "Chunk", "Outcome", "Task", "init_process", "run_chunk", "run_tasks"]
@@ -93,6 +98,12 @@ def _number(name: str, value: Any) -> int | float | None:
     raise TypeError(f"figure {name!r} is {type(value).__name__}, not a number")
 
 
+def _message(exc: CellError) -> str:
+    """The reason a run failed: ``exc``'s message on one line, escaped (it may echo user
+    text: a detector's own message, a file name)."""
+    return escape(" ".join(str(exc).split())) or type(exc).__name__
+
+
 def _scene(module: Any, key: Any, task: Task) -> Any:
     if key in _SCENES:
         _SCENES.move_to_end(key)
@@ -124,9 +135,13 @@ def run_tasks(chunk: Chunk) -> tuple[Outcome, ...]:
             scene = _scene(module, key, task) if key is not None else None
             figures = module.measure(scene, task.scenario, task.settings)
         except CellError as exc:
-            message = " ".join(str(exc).split()) or type(exc).__name__
-            out.append(Outcome(task.run_id, {}, message))
+            out.append(Outcome(task.run_id, {}, _message(exc)))
             continue
+        except Exception as exc:
+            exc.add_note(f"cell sweep: run {task.run_id} (job {chunk.job!r}) stopped the sweep with "
+                         "this unexpected error (a bug); the finished runs are kept, and --resume "
+                         "does the rest once it is fixed")
+            raise
         extra = set(figures) - set(names)
         if extra:
             raise TypeError(f"job {chunk.job!r} returned figures it does not declare: {sorted(extra)}")

@@ -9,11 +9,16 @@ import signal
 import subprocess
 import sys
 import time
+import types
 from pathlib import Path
 
+import pytest
+
+from cell.errors import JobError
 from cell.sweep.plan import plan_sweep
 from cell.sweep.runner import SweepOptions, run_plan
 from cell.sweep.spec import load_sweep
+from cell.sweep.worker import Chunk, Outcome, Task, run_tasks
 from tests.sweep.helpers import ROOT, TINY, rows_without_timings, write_tiny
 
 # (Ctrl-C, a killed worker: long enough that it cannot finish before the test, even starved
@@ -66,8 +71,9 @@ def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
     assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
     assert f"{len(done)} of {len(plan.runs)} runs" in stderr and "--resume" in stderr
     assert 0 < len(done) < len(plan.runs) and len(set(done)) == len(done)
+    todo = next(r for r in plan.runs if r.run_id not in done)
     with open(out / "results.csv", "ab") as f:  # as if the machine died mid-row
-        f.write(b"0123456789abcdef,detect,3,fr")
+        f.write(f"{todo.run_id},detect,{todo.scenario.seed},fr".encode())
     proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", "--resume")
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
@@ -116,3 +122,32 @@ def test_a_killed_worker_loses_nothing(tmp_path):
     assert "a worker process died" in stderr and "Traceback" not in stderr, (stdout, stderr)
     rows = _rows(out / "results.csv")
     assert sorted(rows) == sorted(r.run_id for r in plan.runs)
+
+
+def _job(fail: dict[str, Exception]):
+    """A job whose run ``task.scenario`` (a name here) raises ``fail[name]``, if any."""
+
+    def measure(scene, scenario, settings):
+        if scenario in fail:
+            raise fail[scenario]
+        return {"score": 1.0}
+
+    return types.SimpleNamespace(METRICS=("score",), TIMINGS=(), scene_key=lambda sc, st: None,
+                                 prepare=None, measure=measure)
+
+
+def test_a_run_that_fails_on_purpose_is_a_row_with_its_message_escaped(monkeypatch):
+    job = _job({"bad": JobError("detector 'x:Y' raised: boom \x1b[31mred\nline\x00")})
+    monkeypatch.setattr("cell.sweep.jobs.job_module", lambda name: job)
+    chunk = Chunk("fake", (Task("r1", "bad", None), Task("r2", "good", None)))
+    bad, good = run_tasks(chunk)
+    assert bad.figures == {} and bad.error == "detector 'x:Y' raised: boom \\x1b[31mred line\\x00"
+    assert bad.error.isprintable() and good == Outcome("r2", {"score": 1.0}, None)
+
+
+def test_a_bug_in_a_run_stops_the_sweep_naming_the_run(monkeypatch):
+    job = _job({"bug": ZeroDivisionError("division by zero")})
+    monkeypatch.setattr("cell.sweep.jobs.job_module", lambda name: job)
+    with pytest.raises(ZeroDivisionError) as info:
+        run_tasks(Chunk("fake", (Task("r1", "good", None), Task("r2", "bug", None))))
+    assert any("run r2 (job 'fake')" in note and "--resume" in note for note in info.value.__notes__)

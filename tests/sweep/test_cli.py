@@ -66,6 +66,25 @@ def test_missing_files_and_used_folders_are_one_error(tmp_path):
     _one_error(_cell("sweep", str(sweep), "--out", str(used), "--resume"), "not sweep outputs")
 
 
+@pytest.mark.parametrize("name", ["metrics.png", "summary.md"])
+def test_an_output_taken_by_a_folder_is_refused_before_any_run(tmp_path, name):
+    sweep, out = write_tiny(tmp_path), tmp_path / "out"
+    (out / name).mkdir(parents=True)
+    _one_error(_cell("sweep", str(sweep), "--out", str(out)), f"'{name}' is a folder, not a file")
+    assert [p.name for p in out.iterdir()] == [name]  # no results.csv: nothing ran
+
+
+def test_resume_refuses_a_binary_results_file_and_leaves_it(tmp_path):
+    sweep, out = write_tiny(tmp_path), tmp_path / "out"
+    out.mkdir()
+    binary = b"\x7fELF\x02\x01\x01\x00" + bytes(range(11, 256)) * 12  # no newline: one "half row"
+    (out / "results.csv").write_bytes(binary)
+    _one_error(_cell("sweep", str(sweep), "--out", str(out), "--resume"), "results.csv",
+               "not a whole header")
+    assert [p.name for p in out.iterdir()] == ["results.csv"]
+    assert (out / "results.csv").read_bytes() == binary
+
+
 def test_bench_sweep_reports_strict_json():
     from cell.benchmarks import sweep
 

@@ -57,6 +57,25 @@ def test_bad_axes_name_the_key(table, words):
     assert "file.toml" in str(info.value) and "'a" in str(info.value)
 
 
+@pytest.mark.parametrize("table", [
+    {"from": -1e308, "to": 1e308, "step": 1.0},  # to - from overflows
+    {"from": 0.0, "to": 1.0, "step": 1e-320},  # (to - from) / step overflows
+    {"from": 0.0, "to": 1e308, "step": 1e-300},
+])
+def test_a_range_too_long_to_count_is_refused_naming_the_limit(table, tmp_path):
+    with pytest.raises(SweepError, match="holds too many values to count; at most 100000") as info:
+        parse_axes({"a": table}, "file.toml")
+    assert "file.toml" in str(info.value) and "range of key 'a'" in str(info.value)
+    with pytest.raises(SweepError, match="range of key 'seeds'.*at most 100000"):
+        plan_sweep(_spec(f"[sweep]\nseeds = {{from = {table['from']!r}, to = {table['to']!r}, "
+                         f"step = {table['step']!r}}}\n", tmp_path))
+
+
+def test_a_count_range_over_the_whole_float_line_stays_finite():
+    assert expand_range({"from": -1e308, "to": 1e308, "count": 3}, "k", "f") == [-1e308, 0.0, 1e308]
+    assert expand_range({"from": -1e308, "to": 1e308, "count": 2}, "k", "f") == [-1e308, 1e308]
+
+
 def test_cases_multiply_the_grid_and_replace_its_axes(tmp_path):
     spec = _spec(TINY, tmp_path)
     assert [c.job for c in spec.cases] == ["detect", "detect"]

@@ -73,6 +73,68 @@ def test_a_foreign_or_damaged_results_file_is_refused(tmp_path, content, words):
     assert str(path) in str(info.value)
 
 
+HEADER = ",".join(COLUMNS).encode() + b"\n"
+ROW_A = b"a" * 16 + b",detect,1,front,0.5,\n"
+NOT_HALF = "line 3 is an unfinished last line that is not the start of a row of this sweep"
+
+
+@pytest.mark.parametrize(("content", "words"), [
+    (b"\x7fELF\x02\x01\x01" + bytes(range(11, 256)) * 12, "line 1 is not a whole header"),  # binary
+    (b"run_id,job,seed,lighting,recall,erro\xff", "line 1 is not a whole header"),
+    (HEADER + ROW_A + b"\x7fELF\x02\x01\x01\x00\x00", NOT_HALF),
+    (HEADER + ROW_A + b"b" * 16 + b",det\x00", NOT_HALF),
+    (HEADER + ROW_A + b"zz,detect", NOT_HALF),
+    (HEADER + ROW_A + b"a" * 16 + b",det", NOT_HALF),  # a run already done
+    (HEADER + ROW_A + b"\xff" * 20, NOT_HALF),
+    (HEADER + ROW_A + b"b" * 16 + b",detect,1,front,0.5,,,,", NOT_HALF),
+])
+def test_only_a_half_written_row_of_this_sweep_is_dropped(tmp_path, content, words):
+    path = tmp_path / "results.csv"
+    path.write_bytes(content)
+    with pytest.raises(SweepError, match=words) as info:
+        open_results(path, COLUMNS, KNOWN)
+    assert str(path) in str(info.value) and path.read_bytes() == content  # left as it was
+
+
+def test_a_half_written_header_or_a_row_cut_in_a_character_is_dropped(tmp_path):
+    path = tmp_path / "results.csv"
+    path.write_bytes(HEADER[:9])
+    results, cut = open_results(path, COLUMNS, KNOWN)
+    results.close()
+    assert cut == 9 and path.read_bytes() == HEADER
+    half = b"b" * 16 + b',detect,1,front,,"caf\xc3'  # a crash inside a UTF-8 'é'
+    path.write_bytes(HEADER + half)
+    results, cut = open_results(path, COLUMNS, KNOWN)
+    results.close()
+    assert cut == len(half) and results.done == set() and path.read_bytes() == HEADER
+
+
+@pytest.mark.parametrize(("row", "words"), [
+    (b"a" * 16 + b",detect,1,front,nan,\n", "line 2: column 'recall' holds 'nan', not a finite number"),
+    (b"a" * 16 + b",detect,1,front,-inf,\n", "column 'recall' holds '-inf'"),
+    (b"a" * 16 + b",detect,1,front,1e999,\n", "column 'recall' holds '1e999'"),
+    (b"a" * 16 + b",detect,1,front,high,\n", "column 'recall' holds 'high'"),
+    (b"a" * 16 + b",detect,x,front,0.5,\n", "column 'seed' holds 'x'"),
+    (b"a" * 16 + b",det\x00ct,1,front,0.5,\n", r"line 2 holds a character that is not printable \('\\x00'\)"),
+    (b"a" * 16 + b",detect,1,front,0.5,\x1b[2J\n", "line 2 holds a character that is not printable"),
+])
+def test_a_finished_row_with_a_figure_that_is_not_finite_or_a_control_character_is_refused(
+        tmp_path, row, words):
+    path = tmp_path / "results.csv"
+    path.write_bytes(HEADER + row)
+    with pytest.raises(SweepError, match=words) as info:
+        open_results(path, COLUMNS, KNOWN, numbers=("seed", "recall"))
+    assert str(path) in str(info.value) and "\x00" not in str(info.value) and "\x1b" not in str(info.value)
+
+
+def test_rows_with_empty_figures_and_crlf_lines_are_accepted(tmp_path):
+    path = tmp_path / "results.csv"
+    path.write_bytes(HEADER.replace(b"\n", b"\r\n") + ROW_A.replace(b"0.5", b"").replace(b"\n", b"\r\n"))
+    results, cut = open_results(path, COLUMNS, KNOWN)
+    results.close()
+    assert cut == 0 and results.done == {"a" * 16}
+
+
 def test_the_output_folder_rules(tmp_path):
     out = tmp_path / "new" / "deeper"
     assert prepare_out(str(out), resume=False) == out and out.is_dir()
@@ -89,6 +151,22 @@ def test_the_output_folder_rules(tmp_path):
         prepare_out(str(out / "notes.txt"), resume=False)
     with pytest.raises(SweepError, match="empty path"):
         prepare_out("", resume=False)
+
+
+@pytest.mark.parametrize("name", ["results.csv", "metrics.png", "summary.md"])
+def test_an_output_name_that_cannot_become_a_file_is_refused(tmp_path, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).mkdir()
+    files = ("results.csv", "metrics.png", "summary.md")
+    with pytest.raises(SweepError, match=f"'{name}' is a folder, not a file") as info:
+        prepare_out(str(out), resume=True, files=files)
+    assert str(out) in str(info.value) and "results.csv, metrics.png, summary.md" in str(info.value)
+    (out / name).rmdir()
+    (out / name).symlink_to(tmp_path)
+    with pytest.raises(SweepError, match=f"'{name}' is a link, not a file"):
+        prepare_out(str(out), resume=True, files=files)
+    assert sorted(p.name for p in out.iterdir()) == [name]  # nothing written
 
 
 def test_atomic_writes_leave_no_temporary_file(tmp_path):

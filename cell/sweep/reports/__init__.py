@@ -2,8 +2,10 @@
 
 ``REPORTS`` maps a sweep file's ``sweep.report`` to its module; each has
 ``build(rows, plan) -> Report`` (:class:`~cell.sweep.reports.table.Report`: headlines,
-plots, Markdown tables). :func:`write_report` reads ``results.csv`` back, builds the
-report and writes each plot and ``summary.md`` whole (temporary file, then rename).
+plots, Markdown tables) and ``PLOTS``, the names of the plots it may write.
+:func:`write_report` reads ``results.csv`` back, builds the report and writes each plot
+and ``summary.md`` whole (temporary file, then rename); :func:`report_files` names them
+all, so that the output folder is checked before the runs.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ import importlib
 
 from cell.sweep.errors import SweepError
 
-__all__ = ["REPORTS", "write_report"]
+__all__ = ["REPORTS", "SUMMARY", "report_files", "report_module", "write_report"]
 
+SUMMARY = "summary.md"
 REPORTS: dict[str, str] = {
     "generic": "cell.sweep.reports.generic",
     "threshold": "cell.sweep.reports.threshold",
@@ -33,6 +36,11 @@ def report_module(name: str):
     if name not in REPORTS:
         raise SweepError(f"unknown report {escape(repr(name))}; valid: {', '.join(REPORTS)}")
     return importlib.import_module(REPORTS[name])
+
+
+def report_files(name: str) -> tuple[str, ...]:
+    """The files report ``name`` writes: its plots, then ``summary.md``."""
+    return (*report_module(name).PLOTS, SUMMARY)
 
 
 def write_report(plan, out) -> tuple[str, ...]:

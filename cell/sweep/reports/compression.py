@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png, values
 
-__all__ = ["build"]
+__all__ = ["PLOTS", "build"]
+
+PLOTS = ("compression.png",)  # the plots it writes (checked before the runs)
 
 
 def _lossless(rows: list[dict]) -> list[dict]:
@@ -135,6 +137,6 @@ def build(rows: list[dict], plan) -> Report:
                          f"{number(base_pos, '.2f')} mm), at ratio {mean(m, 'ratio'):.0f}")
     table = markdown(["codec", "quality", "kB / frame", "ratio", "PSNR dB", "found", "classification",
                       "position mm"], body)
-    plot = Plot("compression.png", "compression ratio per codec, and the detector on decoded frames",
+    plot = Plot(PLOTS[0], "compression ratio per codec, and the detector on decoded frames",
                 _figure(rows, qualities, jpeg))
     return Report(tuple(heads), (plot,), (table,))

@@ -11,7 +11,9 @@ from cell.catalogue import LIGHTING_PRESETS
 from cell.sweep.reports.plots import heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, number, png, values
 
-__all__ = ["build"]
+__all__ = ["PLOTS", "build"]
+
+PLOTS = ("edges.png",)  # the plots it writes (checked before the runs)
 
 _CLUTTER = 0.1  # at most this share of clutter counts as clean
 
@@ -57,5 +59,5 @@ def build(rows: list[dict], plan) -> Report:
                                                    f"{number(clutter[a][b], '.0%')}"
                                                    for b in range(len(highs))])
     table = markdown(["light", "low / high"] + [f"high {h:g}: closed / clutter" for h in highs], body)
-    plot = Plot("edges.png", "closed outlines and clutter over Canny's high and low thresholds", png(fig))
+    plot = Plot(PLOTS[0], "closed outlines and clutter over Canny's high and low thresholds", png(fig))
     return Report(tuple(heads), (plot,), (table,))

@@ -22,7 +22,9 @@ from cell.sweep.reports.table import (
     values,
 )
 
-__all__ = ["build", "overview", "varying"]
+__all__ = ["PLOTS", "build", "overview", "varying"]
+
+PLOTS = ("metrics.png",)  # the plots it writes (checked before the runs)
 
 _PANELS = 6
 _LINES = 8
@@ -39,7 +41,7 @@ def build(rows: list[dict], plan) -> Report:
 
 
 def overview(rows: list[dict], params: tuple[str, ...], metrics: tuple[str, ...], *,
-             file: str = "metrics.png") -> Report:
+             file: str = PLOTS[0]) -> Report:
     """Each metric of ``metrics`` against the parameters of ``params`` that vary."""
     rows = done(rows)
     keys = varying(rows, params)

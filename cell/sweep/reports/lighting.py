@@ -11,7 +11,9 @@ from __future__ import annotations
 from cell.catalogue import LIGHTING_PRESETS
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png
 
-__all__ = ["build", "light"]
+__all__ = ["PLOTS", "build", "light"]
+
+PLOTS = ("lighting.png",)  # the plots it writes (checked before the runs)
 
 _BARS = (("detect", "recall", "parts found"), ("detect", "kind_accuracy", "kind right"),
          ("detect", "material_accuracy", "material right"), ("sort", "sort_accuracy", "sort accuracy"))
@@ -101,5 +103,5 @@ def build(rows: list[dict], plan) -> Report:
                      f"{number(mean(s, 'position_error_mm_p95'), '.2f')} mm")
     table = markdown(["light", "found", "kind", "material", "position mm (mean)", "sort accuracy",
                       "classification", "rejected / run", "sort position p95 mm"], body)
-    plot = Plot("lighting.png", "detector and sort-job figures per light", _figure(lights, by))
+    plot = Plot(PLOTS[0], "detector and sort-job figures per light", _figure(lights, by))
     return Report(tuple(heads), (plot,), (table,))

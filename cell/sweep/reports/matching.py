@@ -11,7 +11,9 @@ from __future__ import annotations
 
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png, values
 
-__all__ = ["CHANGES", "build"]
+__all__ = ["CHANGES", "PLOTS", "build"]
+
+PLOTS = ("matching.png",)  # the plots it writes (checked before the runs)
 
 CHANGES = (("job.brightness", "brightness (grey levels added)", 0.0),
            ("job.contrast", "contrast (grey levels times)", 1.0),
@@ -100,6 +102,6 @@ def build(rows: list[dict], plan) -> Report:
     table = markdown(["method", "hits (unchanged)", "peak error px", "brightness with >= 90 % hits",
                       "contrast with >= 90 % hits", "turn with >= 90 % hits (deg)", "hits at the widest turn",
                       "ms per frame"], body)
-    plot = Plot("matching.png", "hit rate and peak error of SSD, SAD, NCC and ORB against brightness, "
+    plot = Plot(PLOTS[0], "hit rate and peak error of SSD, SAD, NCC and ORB against brightness, "
                 "contrast and rotation", png(fig))
     return Report(tuple(heads), (plot,), (table,))

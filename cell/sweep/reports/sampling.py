@@ -13,7 +13,9 @@ import statistics
 from cell.sweep.reports.plots import heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png, values
 
-__all__ = ["build"]
+__all__ = ["PLOTS", "build"]
+
+PLOTS = ("sampling.png",)  # the plots it writes (checked before the runs)
 
 _GOOD = 0.9
 
@@ -82,6 +84,6 @@ def build(rows: list[dict], plan) -> Report:
                      f"{number(pos[i][j], '.2f')}" for j in range(len(bits))]
             for i, res in enumerate(resolutions)]
     table = markdown(["resolution"] + [f"{b} bits: found / class / mm" for b in bits], body)
-    plot = Plot("sampling.png", "resolution and bit depth against parts found, classification, position "
+    plot = Plot(PLOTS[0], "resolution and bit depth against parts found, classification, position "
                 "error and latency", png(fig))
     return Report(tuple(heads), (plot,), (table,))

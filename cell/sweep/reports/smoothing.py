@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png, values
 
-__all__ = ["build", "noise"]
+__all__ = ["PLOTS", "build", "noise"]
+
+PLOTS = ("smoothing.png",)  # the plots it writes (checked before the runs)
 
 
 def noise(row: dict) -> tuple[str, float]:
@@ -70,6 +72,6 @@ def build(rows: list[dict], plan) -> Report:
                                  f"position {number(pos, '.2f')} mm)")
             heads.append("; ".join(parts))
     table = markdown(["noise", "level", "filter"] + [f"{n} passes: IoU / mm" for n in passes], body)
-    plot = Plot("smoothing.png", "foreground IoU and position error against filter passes, per noise",
+    plot = Plot(PLOTS[0], "foreground IoU and position error against filter passes, per noise",
                 png(fig))
     return Report(tuple(heads), (plot,), (table,))

@@ -67,15 +67,18 @@ def summary_text(plan, rows: list[dict], report) -> str:
 
 def write_summary(plan, out: Path) -> tuple[str, ...]:
     """Build ``plan``'s report from ``out``/results.csv and write its plots and summary.md."""
-    from cell.sweep.reports import report_module
+    from cell.sweep.reports import SUMMARY, report_module
 
     _, rows = read_rows(out / RESULTS)
     known = {r.run_id for r in plan.runs}
     rows = [r for r in rows if r.get("run_id") in known]
-    report = report_module(plan.spec.report).build(rows, plan)
+    module = report_module(plan.spec.report)
+    report = module.build(rows, plan)
     files = []
     for p in report.plots:
+        if p.file not in module.PLOTS:  # (the output folder was checked for PLOTS alone)
+            raise ValueError(f"report {plan.spec.report!r} made {p.file!r}, not in its PLOTS")
         write_atomic(out / p.file, p.png)
         files.append(p.file)
-    write_atomic(out / "summary.md", summary_text(plan, rows, report).encode("utf-8"))
-    return (*files, "summary.md")
+    write_atomic(out / SUMMARY, summary_text(plan, rows, report).encode("utf-8"))
+    return (*files, SUMMARY)

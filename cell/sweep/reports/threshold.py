@@ -15,7 +15,9 @@ from cell.catalogue import LIGHTING_PRESETS
 from cell.sweep.reports.plots import heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, group, markdown, mean, number, png, values
 
-__all__ = ["METHODS", "SYLLABUS", "band", "build"]
+__all__ = ["METHODS", "PLOTS", "SYLLABUS", "band", "build"]
+
+PLOTS = ("threshold.png",)  # the plots it writes (checked before the runs)
 
 METHODS = ("otsu", "iterative", "adaptive", "belt")
 SYLLABUS = 150
@@ -135,6 +137,6 @@ def build(rows: list[dict], plan) -> Report:
                          f"{number(mean(members, 'sort_accuracy'), '.0%')}")
         tables.append(markdown(["light", "segmentation", "sort accuracy", "classification", "rejected",
                                 "missed"], sbody))
-    plot = Plot("threshold.png", "parts found and foreground IoU per light: fixed thresholds 0-255 "
+    plot = Plot(PLOTS[0], "parts found and foreground IoU per light: fixed thresholds 0-255 "
                 "and the four methods", _figure(det, presets, columns, len(thresholds), bands))
     return Report(tuple(heads), (plot,), tuple(tables))

@@ -163,6 +163,10 @@ def run_sweep(path: str | Path, *, out: str, options: SweepOptions | None = None
     """Run the sweep file ``path`` into the folder ``out``."""
     options = options or SweepOptions()
     plan = plan_sweep(load_sweep(path))
+    if options.backend == "ray":
+        from cell.sweep.raybackend import import_ray
+
+        import_ray()  # a missing Ray fails before --out is made
     return run_plan(plan, prepare_out(out, resume=options.resume, files=output_files(plan, options)),
                     options)
 

@@ -100,3 +100,17 @@ def test_bench_sweep_reports_strict_json():
         assert setup["runs_per_min"] > 0 and setup["startup_s"] > 0
     assert out["ratios"]["local_2_over_local_1"] > 0 and out["ratios"]["ray_over_local_2"] is None
     _one_error(_cell("bench", "sweep", "--seeds", "0"), "--seeds")
+
+
+def test_a_missing_ray_is_refused_before_the_output_folder_is_made(tmp_path):
+    fake = tmp_path / "site" / "ray"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError('no ray here')\n")
+    sweep = write_tiny(tmp_path)
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+           "PYTHONPATH": os.pathsep.join([str(fake.parent), str(ROOT)])}
+    r = subprocess.run([sys.executable, "-m", "cell.cli", "sweep", str(sweep), "--out",
+                        str(tmp_path / "o"), "--backend", "ray"], capture_output=True, text=True,
+                       cwd=ROOT, env=env, timeout=300)
+    _one_error(r, "--backend ray needs Ray")
+    assert not (tmp_path / "o").exists()

@@ -93,6 +93,8 @@ def check_output_file(arg: str, option: str, *, error: type[CellError] = CellErr
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise error(f"{option} {shown}: is a folder; name a file")
+    if path.is_symlink() and not path.exists():
+        raise error(f"{option} {shown}: a symbolic link to nothing (or a loop); name a file")
     if path.exists() and not path.is_file():
         raise error(f"{option} {shown}: not a regular file (a device, FIFO or socket); name a file")
     if not folder.is_dir():

@@ -14,13 +14,19 @@ def test_an_output_path_must_be_able_to_become_a_regular_file(tmp_path):
     assert check_output_file(str(tmp_path / "r.json"), "--report") == tmp_path / "r.json"
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
-    cases = {"": "--report: empty path", str(tmp_path): "is a folder",
+    (tmp_path / "loop1").symlink_to("loop2")
+    (tmp_path / "loop2").symlink_to("loop1")
+    (tmp_path / "dangling").symlink_to("nowhere/x")
+    cases = {str(tmp_path / "loop1"): "a symbolic link to nothing",
+             str(tmp_path / "dangling"): "a symbolic link to nothing",
+             "": "--report: empty path", str(tmp_path): "is a folder",
              str(fifo): "not a regular file", "/dev/null": "not a regular file",
              str(tmp_path / "no" / "r.json"): "does not exist"}
     for arg, needle in cases.items():
         with pytest.raises(CellError, match=needle):
             check_output_file(arg, "--report")
     assert fifo.exists() and not fifo.is_file()  # left as it was
+    assert (tmp_path / "loop1").is_symlink() and (tmp_path / "dangling").is_symlink()
 
 
 def test_input_bytes_come_from_regular_files_only(tmp_path):

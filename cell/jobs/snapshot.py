@@ -190,7 +190,7 @@ class _OutputSet:
     def write(self, name: str, writer: Callable[[Path], object]) -> None:
         """Run ``writer(path)`` for ``name`` in the staging folder; any failure is a ``CellError``.
 
-        A writer that returns ``False`` (as ``cv2.imwrite`` does) has failed.
+        A writer that returns ``False`` (as an image encoder does) has failed.
         """
         shown = repr(str(self.target / name))
         try:
@@ -260,6 +260,19 @@ def _npy(array: np.ndarray) -> Callable[[Path], object]:
     return lambda path: np.save(path, array)
 
 
+def _png(bgr: np.ndarray) -> Callable[[Path], object]:
+    """A writer of ``bgr`` (uint8, H x W x 3) as PNG: encoded in memory and written by
+    Python, so a path that is not UTF-8 never reaches OpenCV (whose ``imwrite`` crashes
+    on one)."""
+    def write(path: Path) -> bool:
+        ok, data = cv2.imencode(".png", bgr)
+        if ok:
+            path.write_bytes(data.tobytes())
+        return bool(ok)
+
+    return write
+
+
 # --- the command ------------------------------------------------------------------------
 
 def _run_for(world: World, seconds: float) -> None:
@@ -298,7 +311,7 @@ def main(argv: list[str]) -> int:
                 where = f"part at the pick zone after {world.time:.2f} s"
             frame = world.render(args.camera)
             bgr = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR)
-            outputs.write("rgb.png", lambda path: cv2.imwrite(str(path), bgr))
+            outputs.write("rgb.png", _png(bgr))
             outputs.write("depth.npy", _npy(frame.depth.astype(np.float32)))
             outputs.write("seg.npy", _npy(frame.seg.astype(np.int32)))
             outputs.write("camera.json", lambda path: _write_json(path, frame.camera.to_dict()))

@@ -28,6 +28,7 @@ from cell.sweep.errors import SweepError
 
 __all__ = ["MAX_AXIS", "Axis", "expand_range", "flatten", "parse_axes", "product", "size"]
 
+MAX_DEPTH = 16  # dotted parts of a key at most (settings have three)
 MAX_AXIS = 100_000  # values of one axis
 _RANGE_KEYS = {"from", "to", "step", "count"}
 
@@ -120,10 +121,20 @@ def flatten(table: dict, where: str, prefix: str = "") -> dict[str, Any]:
             raise SweepError(f"{where}: invalid key {show(key)}")
         dotted = prefix + key
         if isinstance(value, dict) and not _is_range(value):
-            out.update(flatten(value, where, dotted + "."))
+            out.update(flatten(value, where, _deeper(dotted, where) + "."))
         else:
             out[dotted] = value
     return out
+
+
+def _deeper(key: str, where: str) -> str:
+    """``key``, a table about to be entered; a ``SweepError`` when it is nested deeper than
+    any setting (a key of thousands of dotted parts would exhaust the recursion)."""
+    if key.count(".") >= MAX_DEPTH:
+        shown = key if len(key) <= 60 else key[:57] + "..."
+        raise SweepError(f"{where}: key '{escape(shown)}' is nested more than {MAX_DEPTH} "
+                         "tables deep; no setting is")
+    return key
 
 
 def _scalar(value: object, key: str, where: str) -> object:
@@ -180,7 +191,7 @@ def parse_axes(table: dict, where: str, *, reserved: tuple[str, ...] = ()) -> li
         if isinstance(value, list) and any(isinstance(v, dict) and not _is_range(v) for v in value):
             raise SweepError(f"{where}: key '{escape(key)}' mixes tables and values")
         if isinstance(value, dict) and not _is_range(value):
-            axes += parse_axes({f"{key}.{k}": v for k, v in value.items()}, where)
+            axes += parse_axes({f"{_deeper(key, where)}.{k}": v for k, v in value.items()}, where)
             continue
         axes.append(Axis((key,), tuple((v,) for v in _values(value, key, where))))
     seen: set[str] = set()

@@ -2,9 +2,10 @@
 
 ``--out DIR`` is created when missing. An existing folder may hold only what a sweep
 writes there (``results.csv``, ``summary.md``, ``*.png`` and the temporary files of an
-interrupted write, which are removed); one holding ``results.csv`` is continued only with
-``--resume``; each file this sweep will write that is already there must be a plain file
-(not a folder, a link or a device), checked before any run. Plots and the summary are
+interrupted write, which are removed once ``results.csv`` is accepted); one holding
+``results.csv`` is continued only with ``--resume``; each file this sweep will write that
+is already there must be a plain file (not a folder, a link or a device), checked before
+any run. Plots and the summary are
 written through a temporary name beside the target, fsynced and renamed into place
 (:func:`write_atomic`), so a reader never sees half a file.
 """
@@ -20,7 +21,7 @@ from cell.config import escape
 from cell.files import atomic_write_bytes
 from cell.sweep.errors import SweepError
 
-__all__ = ["RESULTS", "prepare_out", "write_atomic"]
+__all__ = ["RESULTS", "prepare_out", "remove_temporaries", "write_atomic"]
 
 RESULTS = "results.csv"
 _OUTPUT = re.compile(r"results\.csv|summary\.md|[A-Za-z0-9_.-]+\.png")
@@ -49,9 +50,8 @@ def prepare_out(arg: str, *, resume: bool, files: tuple[str, ...] = (RESULTS,)) 
                 raise SweepError(f"{shown}: holds the results of a sweep; pass --resume to finish "
                                  "it, or name a new folder")
             _check_files(path, [f for f in files if f in entries], files, shown)
-            for e in entries:
-                if _TEMP.fullmatch(e):
-                    (path / e).unlink(missing_ok=True)
+        elif path.is_symlink():
+            raise SweepError(f"{shown}: a symbolic link to nothing (or a loop); name a folder")
         else:
             path.mkdir(parents=True)
         if not os.access(path, os.W_OK | os.X_OK):
@@ -59,6 +59,14 @@ def prepare_out(arg: str, *, resume: bool, files: tuple[str, ...] = (RESULTS,)) 
     except OSError as exc:
         raise SweepError(f"{shown}: cannot be used: {escape(exc.strerror or str(exc))}") from None
     return path
+
+
+def remove_temporaries(path: Path) -> None:
+    """Remove the temporary files an interrupted write left in the output folder ``path``
+    (called once ``results.csv`` has been read back and accepted)."""
+    for e in os.listdir(path):
+        if _TEMP.fullmatch(e):
+            (path / e).unlink(missing_ok=True)
 
 
 def _kind(mode: int) -> str | None:

@@ -20,7 +20,7 @@ from pathlib import Path
 from cell.config import escape
 from cell.sweep.errors import SweepError
 from cell.sweep.jobs import job_module
-from cell.sweep.output import RESULTS, prepare_out
+from cell.sweep.output import RESULTS, prepare_out, remove_temporaries
 from cell.sweep.plan import Plan, Run, param_value, plan_sweep
 from cell.sweep.progress import Progress
 from cell.sweep.results import open_results
@@ -125,6 +125,7 @@ def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | 
     backend = make_backend(options) if own else backend
     results, cut = open_results(out / RESULTS, plan.columns.names, {r.run_id for r in plan.runs},
                                 numbers=plan.columns.numbers)
+    remove_temporaries(out)
     todo = [r for r in plan.runs if r.run_id not in results.done]
     by_id = {r.run_id: r for r in todo}
     resumed = len(plan.runs) - len(todo)

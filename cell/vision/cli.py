@@ -147,7 +147,8 @@ def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
         raise VisionError(f"image file {str(path)!r} is {w}x{h} pixels ({w * h:,}), more than "
                           f"the {MAX_PIXELS:,} this command decodes (camera {camera.width}x{camera.height})")
     with _c_stderr() as said:  # libpng writes its errors to stderr itself, past OpenCV's logging
-        bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        # (decoded from memory: a path that is not UTF-8 would crash cv2.imread)
+        bgr = cv2.imdecode(np.frombuffer(_image_bytes(path), np.uint8), cv2.IMREAD_COLOR)
     if bgr is None:
         why = " ".join(said.read().split())[:120] or "damaged or truncated?"
         raise VisionError(f"image file {str(path)!r}: cannot decode the image ({_plain(why)})")
@@ -189,6 +190,13 @@ def _check_image_file(path: Path) -> None:
         raise VisionError(f"image file {str(path)!r} is a directory, not an image")
     if not stat.S_ISREG(mode):
         raise VisionError(f"image file {str(path)!r} is not a regular file")
+
+
+def _image_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as exc:
+        raise VisionError(f"image file {str(path)!r}: cannot read it ({exc.strerror})") from None
 
 
 def _header_size(path: Path) -> tuple[int, int]:

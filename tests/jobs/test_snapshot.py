@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -130,8 +132,8 @@ def test_a_failed_run_leaves_the_earlier_output_as_it_was(capsys, tmp_path):
     assert rc == 2 and tree(tmp_path) == before
 
 
-def _fail_imwrite(*_args, **_kw):
-    return False
+def _fail_imencode(*_args, **_kw):
+    return False, None
 
 
 def _fail_on(name: str, real):
@@ -146,10 +148,10 @@ def _nan_rows(_world):
     return [{"id": 1, "position": [0.0, 0.0, math.nan]}]
 
 
-@pytest.mark.parametrize("failure", ["imwrite returns False", "disk full at seg.npy", "NaN in truth"])
+@pytest.mark.parametrize("failure", ["imencode returns False", "disk full at seg.npy", "NaN in truth"])
 def test_a_failed_write_is_an_error_and_changes_nothing(capsys, tmp_path, monkeypatch, failure):
-    if failure == "imwrite returns False":
-        monkeypatch.setattr(cv2, "imwrite", _fail_imwrite)
+    if failure == "imencode returns False":
+        monkeypatch.setattr(cv2, "imencode", _fail_imencode)
         culprit = "rgb.png"
     elif failure == "disk full at seg.npy":
         monkeypatch.setattr(np, "save", _fail_on("seg.npy", np.save))
@@ -206,6 +208,17 @@ def test_an_undecodable_out_path_is_printed_escaped(capsys, tmp_path):
     rc, _, err = run(capsys, *SMALL, "--time", "0", "--out", str(tmp_path / bad))
     assert rc == 2
     assert_one_error_line(err, "bad\\udcff")
+
+
+def test_an_out_path_that_is_not_utf8_is_written(tmp_path):
+    # (a subprocess: before, cv2.imwrite crashed the process on such a path)
+    out = os.path.join(os.fsencode(tmp_path), b"snap\xe9")
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    r = subprocess.run([sys.executable, "-m", "cell.cli", "snapshot", *[os.fsencode(a) for a in SMALL],
+                        "--time", "0", "--out", out], capture_output=True, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert {os.fsdecode(n) for n in os.listdir(out)} == DOCUMENTED
+    assert os.listdir(tmp_path) == [b"snap\xe9".decode("utf-8", "surrogateescape")]
 
 
 def test_a_failed_swap_puts_the_earlier_output_back(capsys, tmp_path, monkeypatch):

@@ -61,7 +61,12 @@ def test_missing_files_and_used_folders_are_one_error(tmp_path):
     used.mkdir()
     (used / "results.csv").write_text("run_id\n")
     _one_error(_cell("sweep", str(sweep), "--out", str(used)), "pass --resume")
+    (used / ".results.csv.abc.tmp").write_text("half")
     _one_error(_cell("sweep", str(sweep), "--out", str(used), "--resume"), "not this sweep's")
+    assert sorted(p.name for p in used.iterdir()) == [".results.csv.abc.tmp", "results.csv"]
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    _one_error(_cell("sweep", str(sweep), "--out", str(loop)), "a symbolic link to nothing")
     (used / "notes.txt").write_text("mine")
     _one_error(_cell("sweep", str(sweep), "--out", str(used), "--resume"), "not sweep outputs")
 

@@ -164,3 +164,10 @@ def test_every_study_file_plans(tmp_path):
     for path in STUDIES.glob("*.toml"):
         plan = plan_sweep(load_sweep(path))
         assert plan.spec.report == path.stem and len(plan.runs) >= 40, path
+
+
+@pytest.mark.parametrize("section", ["[grid]", "[[case]]", "[scenario]", "[job]"])
+def test_a_key_nested_thousands_deep_is_one_error(tmp_path, section):
+    text = f"{section}\n" + "a." * 3000 + "a = [1]\n"
+    with pytest.raises(SweepError, match=r"is nested more than 16 tables deep"):
+        _spec(text, tmp_path)

@@ -9,7 +9,7 @@ import math
 import pytest
 
 from cell.sweep.errors import SweepError
-from cell.sweep.output import prepare_out, write_atomic
+from cell.sweep.output import prepare_out, remove_temporaries, write_atomic
 from cell.sweep.results import format_value, open_results, parse_value, read_rows
 
 COLUMNS = ("run_id", "job", "seed", "lighting", "recall", "error")
@@ -143,7 +143,9 @@ def test_the_output_folder_rules(tmp_path):
     with pytest.raises(SweepError, match="pass --resume"):
         prepare_out(str(out), resume=False)
     prepare_out(str(out), resume=True)
-    assert not (out / ".summary.md.1234.tmp").exists()
+    assert (out / ".summary.md.1234.tmp").exists()  # removed only once results.csv is accepted
+    remove_temporaries(out)
+    assert not (out / ".summary.md.1234.tmp").exists() and (out / "results.csv").exists()
     (out / "notes.txt").write_text("mine")
     with pytest.raises(SweepError, match="not sweep outputs .'notes.txt'"):
         prepare_out(str(out), resume=True)

@@ -5,7 +5,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import struct
+import subprocess
+import sys
 import zlib
 
 import cv2
@@ -267,6 +270,19 @@ def test_paths_are_printed_escaped(snapshot, tmp_path, capfd):
     assert cell_main(["detect", str(path), "--camera", str(snapshot / "camera.json")]) == 0
     out = capfd.readouterr().out
     assert "\x1b" not in out and r"a\x1b[2J\x1b]0;title\x07.png" in out.splitlines()[0]
+
+
+def test_an_image_path_that_is_not_utf8_is_read(snapshot, tmp_path):
+    # (a subprocess: before, cv2.imread crashed the process on such a path)
+    path = os.path.join(os.fsencode(tmp_path), b"caf\xe9.png")
+    with open(path, "wb") as f:
+        f.write((snapshot / "rgb.png").read_bytes())
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    r = subprocess.run([sys.executable, "-m", "cell.cli", "detect", path, "--camera",
+                        str(snapshot / "camera.json"), "--json"], capture_output=True, env=env,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads(r.stdout)["detections"]) == 2
 
 
 def _no_constants(name: str):

@@ -117,10 +117,12 @@ class _Rays:
 class TablePlane:
     """One camera's pixel rays onto horizontal planes (world z up, metres).
 
-    A camera model whose rays at the principal point meet the plane at no finite, nonzero
-    spacing (a lens distortion that folds the image there, so that ``cv2.undistortPoints``
-    finds no ray; a ray along the plane) is a ``VisionError``. Elsewhere a pixel without a
-    ray gets a non-finite slope, which the steps after refuse or leave out.
+    A camera model below the plane, or whose optical axis does not point down, is a
+    ``VisionError`` (its rays would meet the plane behind it: mirrored positions), as is
+    one whose rays at the principal point meet the plane at no finite, nonzero spacing (a
+    lens distortion that folds the image there, so that ``cv2.undistortPoints`` finds no
+    ray). Elsewhere a pixel without a ray gets a non-finite slope, which the steps after
+    refuse or leave out.
     """
 
     def __init__(self, camera: CameraModel, plane_z: float) -> None:
@@ -128,6 +130,10 @@ class TablePlane:
         self.plane_z = plane_z
         self._R = camera.T_world_camera[:3, :3]
         self._o = camera.T_world_camera[:3, 3]
+        if not (self._o[2] > plane_z and self._R[2, 2] < 0):
+            raise VisionError(f"camera model: at z = {self._o[2]:g} m with its optical axis's z "
+                              f"{self._R[2, 2]:+.3g}: it must be above the plane z = {plane_z:g} m "
+                              "and look down on it (axis z below 0)")
         nadir = camera.K @ (self._R.T @ np.array([0.0, 0.0, -1.0]))
         self._nadir = nadir[:2] / nadir[2] if nadir[2] > 1e-9 else None
         centre = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])

@@ -61,11 +61,24 @@ def test_top_edges_face_away_from_the_nadir():
     assert plane.m_per_px == pytest.approx(1 / (drawn.PX_PER_MM * 1e3), rel=1e-9)
 
 
+@pytest.mark.parametrize(("R", "z"), [
+    (np.eye(3), 0.5),  # looks up: its rays meet the plane behind it
+    ([[1, 0, 0], [0, 0, 1], [0, -1, 0]], 0.5),  # looks along the plane
+    ([[1, 0, 0], [0, -1, 0], [0, 0, -1]], -0.5),  # looks down from below the plane
+], ids=["looks up", "along the plane", "below the plane"])
+def test_a_camera_that_does_not_look_down_on_the_plane_is_a_vision_error(R, z):
+    cam = drawn.camera()
+    T = cam.T_world_camera.copy()
+    T[:3, :3], T[2, 3] = R, z
+    with pytest.raises(VisionError, match=r"^camera model: at z = .* m with its optical axis's z "
+                       r".*: it must be above the plane z = 0.08 m and look down on it"):
+        TablePlane(CameraModel(cam.width, cam.height, cam.K, cam.dist, T), 0.08)
+
+
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 @pytest.mark.parametrize(("R", "dist"), [
-    ([[1, 0, 0], [0, 0, 1], [0, -1, 0]], [0.0] * 5),  # looks along the plane: inf - inf before
     ([[1, 0, 0], [0, -1, 0], [0, 0, -1]], [0.0, 0.0, 0.0, -100.0, 0.0]),  # folds the image there
-], ids=["along the plane", "folding distortion"])
+], ids=["folding distortion"])
 def test_a_camera_without_rays_at_its_principal_point_is_a_vision_error(R, dist):
     cam = drawn.camera()
     T = cam.T_world_camera.copy()

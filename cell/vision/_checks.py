@@ -7,11 +7,14 @@ says what was expected, instead of an OpenCV assertion deep inside a call.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterable
 
 import numpy as np
 
 from cell.errors import VisionError
+
+MAX_SIZE = 4095  # pixels: the largest kernel, block or window side a vision function takes
 
 
 def _dtype_names(dtypes: Iterable[np.dtype | type]) -> str:
@@ -98,20 +101,61 @@ def check_points(name: str, value: object, *, dim: int = 2, count: int | None = 
 
 
 def check_choice(name: str, value: object, choices: tuple) -> None:
-    """``value`` must be one of ``choices``; the error lists them."""
-    if value not in choices:
+    """``value`` must be one of ``choices``; the error lists them. A choice among
+    integers (``connectivity`` 4 or 8) takes an integer, not ``4.0`` or ``True``."""
+    if all(_is_int(c) for c in choices) and not _is_int(value):
+        valid = False
+    else:
+        try:
+            valid = value in choices
+        except (TypeError, ValueError):  # an array compared with the choices
+            valid = False
+    if not valid:
         raise VisionError(
-            f"argument '{name}': {value!r} is not valid (valid: {', '.join(map(repr, choices))})"
+            f"argument '{name}': {_shown(value)} is not valid (valid: {', '.join(map(repr, choices))})"
         )
 
 
-def check_odd(name: str, value: int, *, minimum: int = 1) -> None:
-    """An odd integer >= ``minimum`` (kernel and block sizes)."""
-    if not isinstance(value, int | np.integer) or value < minimum or value % 2 == 0:
-        raise VisionError(f"argument '{name}': expected an odd integer >= {minimum}, got {value!r}")
+def check_odd(name: str, value: object, *, minimum: int = 1, maximum: int = MAX_SIZE) -> None:
+    """An odd integer from ``minimum`` to ``maximum`` (kernel and block sizes)."""
+    if not _is_int(value) or not minimum <= value <= maximum or value % 2 == 0:
+        raise VisionError(f"argument '{name}': expected an odd integer from {minimum} to {maximum}, "
+                          f"got {_shown(value)}")
 
 
-def check_range(name: str, value: float, lo: float, hi: float) -> None:
-    """``lo <= value <= hi``."""
-    if not (lo <= value <= hi):
-        raise VisionError(f"argument '{name}': {value!r} is outside [{lo}, {hi}]")
+def check_int(name: str, value: object, lo: int, hi: int) -> int:
+    """An integer (not a bool, not a float) with ``lo <= value <= hi``; returned as ``int``."""
+    if not _is_int(value) or not lo <= value <= hi:
+        raise VisionError(f"argument '{name}': expected an integer from {lo} to {hi}, got {_shown(value)}")
+    return int(value)
+
+
+def check_range(name: str, value: object, lo: float, hi: float) -> float:
+    """A real number (not a bool, a string or an array; finite unless a bound is infinite)
+    with ``lo <= value <= hi``; returned as ``float``."""
+    if not _is_real(value) or not (lo <= value <= hi):
+        raise VisionError(f"argument '{name}': {_shown(value)} is outside [{lo}, {hi}]"
+                          if _is_real(value) else
+                          f"argument '{name}': expected a number in [{lo}, {hi}], got {_shown(value)}")
+    return float(value)
+
+
+def check_finite(name: str, value: np.ndarray) -> np.ndarray:
+    """A float array whose values are all finite (a NaN or inf pixel would spread through a
+    filter or a match score); integer arrays pass unchecked."""
+    if value.dtype.kind == "f" and not np.isfinite(value).all():
+        raise VisionError(f"argument '{name}': holds NaN or infinite values; every value must be finite")
+    return value
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def _is_real(value: object) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.vision._checks import check_choice, check_mask
+from cell.vision._checks import check_choice, check_int, check_mask
 
 __all__ = ["Components", "label_components"]
 
@@ -52,13 +52,14 @@ def label_components(
     ----------
     mask : bool or uint8 (H, W); non-zero is foreground.
     connectivity : 4 or 8.
-    min_area : regions smaller than this (pixels) are dropped and the remaining ones
-        renumbered 1..count in their original order.
+    min_area : regions smaller than this (pixels, 0 to 2**31 - 1) are dropped and the
+        remaining ones renumbered 1..count in their original order.
 
     Returns ``Components``.
     """
     fg = check_mask("mask", mask)
     check_choice("connectivity", connectivity, (4, 8))
+    min_area = check_int("min_area", min_area, 0, 2**31 - 1)
     n, labels, stats, cents = cv2.connectedComponentsWithStatsWithAlgorithm(
         fg.view(np.uint8), connectivity, cv2.CV_32S, cv2.CCL_GRANA
     )

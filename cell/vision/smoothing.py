@@ -12,8 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from cell.errors import VisionError
-from cell.vision._checks import check_image, check_odd
+from cell.vision._checks import MAX_SIZE, check_finite, check_image, check_int, check_odd, check_range
 
 __all__ = ["gaussian_iterated", "median"]
 
@@ -30,18 +29,20 @@ def gaussian_iterated(
 
     Parameters
     ----------
-    image : uint8 or float32, (H, W) or (H, W, 3).
-    iterations : number of passes, >= 0 (0 returns a copy).
-    ksize : odd kernel size in pixels.
-    sigma : Gaussian standard deviation in pixels; 0 lets OpenCV derive it from ksize.
+    image : uint8 or float32 (finite), (H, W) or (H, W, 3).
+    iterations : number of passes, 0 (returns a copy) to ``4096 // ksize``, so that the
+        work (passes x kernel width) stays bounded: 1365 passes of the 3x3 kernel.
+    ksize : odd kernel size in pixels, 1 to 4095.
+    sigma : Gaussian standard deviation in pixels, 0 to 4095; 0 lets OpenCV derive it
+        from ksize.
 
     Returns an array of the input dtype and shape. Wraps ``cv2.GaussianBlur``
     (border: reflect-101).
     """
-    image = check_image("image", image, dtypes=(np.uint8, np.float32))
+    image = check_finite("image", check_image("image", image, dtypes=(np.uint8, np.float32)))
     check_odd("ksize", ksize)
-    if not isinstance(iterations, int | np.integer) or iterations < 0:
-        raise VisionError(f"argument 'iterations': expected an integer >= 0, got {iterations!r}")
+    check_int("iterations", iterations, 0, (MAX_SIZE + 1) // ksize)
+    sigma = check_range("sigma", sigma, 0.0, MAX_SIZE)
     out = image.astype(np.float32)
     for _ in range(int(iterations)):
         out = cv2.GaussianBlur(out, (ksize, ksize), sigma)
@@ -60,10 +61,11 @@ def median(image: np.ndarray, *, ksize: int = 3) -> np.ndarray:
     Parameters
     ----------
     image : uint8 (H, W) or (H, W, 3).
-    ksize : odd window size in pixels, >= 3.
+    ksize : odd window size in pixels, 3 to 255 (OpenCV counts the window's pixels in
+        16-bit histogram bins: 255 x 255 = 65025 is the largest window that fits).
 
     Wraps ``cv2.medianBlur``.
     """
     image = check_image("image", image)
-    check_odd("ksize", ksize, minimum=3)
+    check_odd("ksize", ksize, minimum=3, maximum=255)
     return cv2.medianBlur(np.ascontiguousarray(image), ksize)

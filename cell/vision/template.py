@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_choice, check_gray
+from cell.vision._checks import check_choice, check_finite, check_gray, check_int, check_range
 
 __all__ = [
     "Match",
@@ -34,14 +34,18 @@ __all__ = [
 
 _DTYPES = (np.uint8, np.float32)
 METHODS = ("ssd", "sad", "ncc")
+MAX_SAD_WORK = 2**32  # h * w * (H-h+1) * (W-w+1) pixel differences: a few seconds
 
 
-def _pair(image: np.ndarray, template: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    image = check_gray("image", image, dtypes=_DTYPES)
-    template = check_gray("template", template, dtypes=_DTYPES)
+def _pair(image: np.ndarray, template: np.ndarray, name: str = "template"):
+    """Both as float32 after checking them: grey, uint8 or float32, finite (one NaN
+    pixel would make every SSD score 0, a perfect match everywhere), the template no
+    larger than the image."""
+    image = check_finite("image", check_gray("image", image, dtypes=_DTYPES))
+    template = check_finite(name, check_gray(name, template, dtypes=_DTYPES))
     if template.shape[0] > image.shape[0] or template.shape[1] > image.shape[1]:
         raise VisionError(
-            f"argument 'template': shape {template.shape} is larger than the image's {image.shape}"
+            f"argument '{name}': shape {template.shape} is larger than the image's {image.shape}"
         )
     return image.astype(np.float32, copy=False), template.astype(np.float32, copy=False)
 
@@ -49,8 +53,8 @@ def _pair(image: np.ndarray, template: np.ndarray) -> tuple[np.ndarray, np.ndarr
 def match_ssd(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     """Sum of squared differences ``sum (I(x+u, y+v) - T(u, v))^2`` per placement.
 
-    image, template : uint8 or float32 (H, W), (h, w). Returns float32 (H-h+1, W-w+1),
-    grey levels squared. Wraps ``cv2.matchTemplate(..., cv2.TM_SQDIFF)``.
+    image, template : uint8 or float32 (H, W), (h, w), finite. Returns float32
+    (H-h+1, W-w+1), grey levels squared. Wraps ``cv2.matchTemplate(..., cv2.TM_SQDIFF)``.
     """
     img, tpl = _pair(image, template)
     return cv2.matchTemplate(img, tpl, cv2.TM_SQDIFF)
@@ -62,14 +66,20 @@ def match_sad(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     Hand-written (OpenCV has no SAD mode): the Python loop runs over the ``h * w``
     template pixels, and each step adds ``|I shifted - T(u, v)|`` for every placement
     at once with in-place numpy operations on (H-h+1) x (W-w+1) float32 buffers
-    (about 9 ms for a 24x24 template on a 208x160 image; cost grows as h*w*H*W).
+    (about 9 ms for a 24x24 template on a 208x160 image; cost grows as h*w*H*W, so
+    ``h * w * (H-h+1) * (W-w+1)`` is limited to 2**32, a few seconds).
 
-    image, template : uint8 or float32 (H, W), (h, w). Returns float32 (H-h+1, W-w+1),
-    grey levels.
+    image, template : uint8 or float32 (H, W), (h, w), finite. Returns float32
+    (H-h+1, W-w+1), grey levels.
     """
     img, tpl = _pair(image, template)
     h, w = tpl.shape
     rows, cols = img.shape[0] - h + 1, img.shape[1] - w + 1
+    if h * w * rows * cols > MAX_SAD_WORK:
+        raise VisionError(
+            f"argument 'template': a {h}x{w} template over {rows}x{cols} placements is "
+            f"{h * w * rows * cols} pixel differences, more than 2**32 (use match_ssd)"
+        )
     out = np.zeros((rows, cols), np.float32)
     tmp = np.empty_like(out)
     for dy in range(h):
@@ -86,12 +96,16 @@ def match_ncc(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     ``sum (I' T') / sqrt(sum I'^2 sum T'^2)`` with ``I'``, ``T'`` the window and the
     template minus their means. A flat window (zero variance) scores 0.
 
-    image, template : uint8 or float32 (H, W), (h, w). Returns float32 (H-h+1, W-w+1).
-    Wraps ``cv2.matchTemplate(..., cv2.TM_CCOEFF_NORMED)``.
+    image, template : uint8 or float32 (H, W), (h, w), finite. Returns float32
+    (H-h+1, W-w+1). Wraps ``cv2.matchTemplate(..., cv2.TM_CCOEFF_NORMED)``.
     """
     img, tpl = _pair(image, template)
+    return _ncc(img, tpl, "template")
+
+
+def _ncc(img: np.ndarray, tpl: np.ndarray, name: str) -> np.ndarray:
     if float(tpl.std()) == 0.0:
-        raise VisionError("argument 'template': a flat template has no correlation")
+        raise VisionError(f"argument '{name}': a flat template has no correlation")
     out = cv2.matchTemplate(img, tpl, cv2.TM_CCOEFF_NORMED)
     return np.nan_to_num(np.clip(out, -1.0, 1.0), nan=0.0, posinf=0.0, neginf=0.0)
 
@@ -108,12 +122,19 @@ class Match:
 
 
 def best_match(scores: np.ndarray, template_shape: tuple[int, int], *, method: str) -> Match:
-    """The best placement in a score map: minimum for "ssd"/"sad", maximum for "ncc"."""
+    """The best placement in a score map: minimum for "ssd"/"sad", maximum for "ncc".
+
+    scores : float32 (H-h+1, W-w+1), finite, from :func:`match_ssd`, :func:`match_sad`
+    or :func:`match_ncc`. template_shape : the template's (h, w), integers from 1 to
+    2**31 - 1 (pixels; they place the centre). method : "ssd", "sad" or "ncc".
+    """
     check_choice("method", method, METHODS)
-    scores = check_gray("scores", scores, dtypes=(np.float32,))
+    scores = check_finite("scores", check_gray("scores", scores, dtypes=(np.float32,)))
+    if not isinstance(template_shape, tuple | list) or len(template_shape) != 2:
+        raise VisionError(f"argument 'template_shape': expected (h, w), got {template_shape!r:.40}")
+    h, w = (check_int("template_shape", v, 1, 2**31 - 1) for v in template_shape)
     idx = np.argmax(scores) if method == "ncc" else np.argmin(scores)
     y, x = np.unravel_index(idx, scores.shape)
-    h, w = template_shape
     return Match(int(x), int(y), (x + (w - 1) / 2, y + (h - 1) / 2), float(scores[y, x]))
 
 
@@ -146,13 +167,20 @@ def two_template_decision(
 
     Parameters
     ----------
-    image, template_a, template_b : uint8 or float32 grey images.
-    threshold : minimum NCC peak (0..1) to accept a part.
-    margin : minimum lead (NCC units) of the winner over the other template.
+    image, template_a, template_b : uint8 or float32 grey images, finite.
+    threshold : minimum NCC peak to accept a part, 0..1.
+    margin : minimum lead of the winner over the other template, NCC units, 0..2.
     """
-    ma = best_match(match_ncc(image, template_a), template_a.shape, method="ncc")
-    mb = best_match(match_ncc(image, template_b), template_b.shape, method="ncc")
+    check_range("threshold", threshold, 0.0, 1.0)
+    check_range("margin", margin, 0.0, 2.0)
+    ma = _ncc_peak(image, template_a, "template_a")
+    mb = _ncc_peak(image, template_b, "template_b")
     best, other, label = (ma, mb, "A") if ma.score >= mb.score else (mb, ma, "B")
     if best.score < threshold or best.score - other.score < margin:
         label = "none"
     return TemplateDecision(label, ma.score, mb.score, ma, mb)
+
+
+def _ncc_peak(image: np.ndarray, template: np.ndarray, name: str) -> Match:
+    img, tpl = _pair(image, template, name)
+    return best_match(_ncc(img, tpl, name), tpl.shape, method="ncc")

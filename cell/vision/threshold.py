@@ -166,8 +166,9 @@ def threshold_adaptive(
     Parameters
     ----------
     image : uint8 (H, W).
-    block_size : odd neighbourhood size in pixels (>= 3).
-    offset : margin above (below) the local mean, grey levels (any real).
+    block_size : odd neighbourhood size in pixels, 3 to 4095.
+    offset : margin above (below) the local mean, grey levels, -255 to 255 (beyond,
+        every pixel or none is object).
     method : "mean" or "gaussian".
     polarity : "bright" or "dark".
 
@@ -178,6 +179,7 @@ def threshold_adaptive(
     check_odd("block_size", block_size, minimum=3)
     check_choice("method", method, ADAPTIVE_METHODS)
     check_choice("polarity", polarity, POLARITIES)
+    offset = check_range("offset", offset, -255.0, 255.0)
     cv_method = (
         cv2.ADAPTIVE_THRESH_MEAN_C if method == "mean" else cv2.ADAPTIVE_THRESH_GAUSSIAN_C
     )

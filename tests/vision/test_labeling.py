@@ -51,3 +51,22 @@ def test_min_area_drops_small_regions_and_renumbers():
 def test_bad_connectivity_is_named():
     with pytest.raises(VisionError, match="connectivity.*valid"):
         label_components(np.zeros((3, 3), bool), connectivity=6)
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [({"connectivity": 4.0}, "connectivity"), ({"connectivity": True}, "connectivity"),
+     ({"min_area": np.nan}, "min_area"), ({"min_area": -5}, "min_area"),
+     ({"min_area": "5"}, "min_area"), ({"min_area": 2.0}, "min_area"),
+     ({"min_area": 2**31}, "min_area")],
+)
+def test_numbers_are_checked(kw, name):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        label_components(np.ones((3, 3), bool), **kw)
+
+
+def test_min_area_limits_are_accepted():
+    mask = np.ones((3, 3), bool)
+    assert label_components(mask, min_area=9).count == 1
+    assert label_components(mask, min_area=0).count == 1
+    assert label_components(mask, min_area=2**31 - 1).count == 0

@@ -1,5 +1,7 @@
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from cell.errors import VisionError
 from cell.vision.labeling import label_components
@@ -113,3 +115,119 @@ def test_touching_rendered_washers_are_separated(method):
     for lab in (1, 2):  # each region is one washer (segmentation truth, scoring only)
         ids = frame.seg[labels == lab]
         assert np.bincount(ids).max() / len(ids) > 0.98
+
+
+_M = np.zeros((64, 64), bool)
+_M[10:40, 20:50] = True
+
+
+@pytest.mark.parametrize("op", [erode, dilate, opening, closing])
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [({"size": -3}, "size"), ({"size": 3.0}, "size"), ({"size": "3"}, "size"),
+     ({"size": np.nan}, "size"), ({"size": True}, "size"), ({"size": 2**31 + 1}, "size"),
+     ({"size": 259}, "size"), ({"size": 10001}, "size"), ({"size": 100001}, "size"),
+     ({"iterations": -2}, "iterations"), ({"iterations": np.nan}, "iterations"),
+     ({"iterations": 2.0}, "iterations"), ({"iterations": 10**6}, "iterations"),
+     ({"size": 3, "iterations": 129}, "iterations"),  # reach 129 > 128 px
+     ({"size": 257, "iterations": 2}, "iterations")],
+)
+def test_size_and_iterations_are_bounded(op, kw, name):
+    # a 10001 closing hung; 10**6 iterations asked OpenCV for a 400 GB element
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        op(_M, **kw)
+
+
+@pytest.mark.parametrize("op", [erode, dilate, opening, closing])
+def test_the_reach_limits_are_accepted(op):
+    assert op(_M, size=257, shape="disk").shape == _M.shape
+    assert op(_M, size=3, iterations=128).shape == _M.shape
+    assert op(_M, iterations=0).shape == _M.shape
+
+
+@pytest.mark.parametrize("size", [True, 4097, 2**31 + 1, 3.0])
+def test_structuring_element_size_is_checked(size):
+    from cell.vision.morphology import structuring_element
+
+    with pytest.raises(VisionError, match="argument 'size'"):
+        structuring_element(size)
+
+
+@pytest.mark.parametrize("method", ["distance", "erosion"])
+def test_separate_touching_a_mask_without_background(method):
+    # the distance transform of an all-foreground mask is 3.4e38 everywhere; outside
+    # the image now counts as background
+    labels = separate_touching(np.ones((50, 50), bool), method=method)
+    assert labels.max() == 1 and (labels == 1).all()
+    holed = np.ones((40, 40), bool)
+    holed[15:25, 15:25] = False  # filled for the markers: no background left either
+    labels = separate_touching(holed, method=method)
+    assert labels.max() == 1 and ((labels == 1) == holed).all()
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [({"ratio": "0.5"}, "ratio"), ({"ratio": np.nan}, "ratio"), ({"ratio": 0.0}, "ratio"),
+     ({"ratio": 1.0}, "ratio"), ({"max_iterations": -3}, "max_iterations"),
+     ({"max_iterations": 2.5}, "max_iterations"), ({"max_iterations": "3"}, "max_iterations"),
+     ({"max_iterations": 10**6}, "max_iterations"), ({"size": 4}, "size"),
+     ({"size": 1}, "size"), ({"size": 259}, "size"), ({"method": "erosion", "size": 4}, "size")],
+)
+def test_separate_touching_checks_its_numbers(kw, name):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        separate_touching(_M, **kw)
+
+
+def test_separate_touching_with_an_element_wider_than_the_part():
+    a, b = _two_touching_discs()
+    labels = separate_touching(a | b, method="erosion", size=101)
+    assert labels.max() == 1 and ((labels > 0) == (a | b)).all()
+
+
+def _flood_whole_image(labels, fg, dist, step=0.5):
+    """The watershed by immersion written plainly: every level scans the whole image."""
+    import cv2
+
+    out = labels.astype(np.int32).copy()
+    for level in [*np.arange(float(dist.max()), 0.0, -step), 0.0]:
+        allowed = fg & (dist >= level) & (out == 0)
+        while allowed.any():
+            grown = cv2.dilate(out.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
+            new = allowed & (grown > 0)
+            if not new.any():
+                break
+            out[new] = grown[new]
+            allowed &= ~new
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.3, 0.6, 0.9]))
+def test_flood_equals_the_whole_image_watershed(seed, ratio):
+    import cv2
+
+    from cell.vision import morphology
+
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(1, 90, 2)
+    img = np.zeros((h, w), np.uint8)
+    for _ in range(rng.integers(1, 7)):
+        cv2.circle(img, (int(rng.integers(0, w)), int(rng.integers(0, h))),
+                   int(rng.integers(1, 25)), 1, -1)
+    solid = fill_holes(img > 0)
+    cores, dist = morphology._markers_by_distance(solid, ratio)
+    labels = label_components(cores).labels
+    np.testing.assert_array_equal(morphology._flood(labels, solid, dist, step=0.5),
+                                  _flood_whole_image(labels, solid, dist))
+
+
+def test_separate_touching_a_large_mask():
+    # (the whole-image flood took minutes here, the waiting-pixels flood about 1 s; the
+    # speed itself is a benchmark's business, not a test's)
+    import cv2
+
+    a = np.zeros((2000, 2000), np.uint8)
+    cv2.circle(a, (650, 1000), 500, 1, -1)
+    cv2.circle(a, (1550, 1000), 420, 1, -1)
+    labels = separate_touching(a > 0)
+    assert labels.max() == 2 and labels[1000, 650] != labels[1000, 1550]

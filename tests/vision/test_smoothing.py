@@ -53,3 +53,42 @@ def test_smoothing_rejects_bad_arguments():
         gaussian_iterated(np.zeros((5, 5), np.uint8), iterations=-1)
     with pytest.raises(VisionError, match="image"):
         median(np.zeros((5, 5), np.float32))
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_gaussian_refuses_a_nan_pixel(value):
+    img = np.ones((20, 20), np.float32)
+    img[5, 5] = value
+    with pytest.raises(VisionError, match="argument 'image'.*finite"):
+        gaussian_iterated(img)
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [({"iterations": 10**12}, "iterations"), ({"iterations": True}, "iterations"),
+     ({"iterations": 2.0}, "iterations"), ({"iterations": 1366}, "iterations"),
+     ({"ksize": 31, "iterations": 133}, "iterations"),
+     ({"sigma": np.nan}, "sigma"), ({"sigma": np.inf}, "sigma"), ({"sigma": 1e18}, "sigma"),
+     ({"sigma": -2.0}, "sigma"), ({"sigma": "1"}, "sigma"), ({"sigma": True}, "sigma"),
+     ({"ksize": True}, "ksize"), ({"ksize": 10**18 + 1}, "ksize"), ({"ksize": 3.0}, "ksize")],
+)
+def test_gaussian_checks_its_numbers(kw, name):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        gaussian_iterated(np.zeros((20, 20), np.uint8), **kw)
+
+
+def test_gaussian_bounds_accept_the_limits():
+    img = np.zeros((8, 8), np.uint8)
+    assert gaussian_iterated(img, iterations=1365).shape == (8, 8)  # 1365 x 3 <= 4096
+    assert gaussian_iterated(img, ksize=4095, sigma=4095.0).shape == (8, 8)
+
+
+@pytest.mark.parametrize("ksize", [257, 365, 1001, 2**31 + 1, 3.0, True])
+def test_median_refuses_windows_opencv_cannot_count(ksize):
+    # uint8 windows above 255 x 255 overflow OpenCV's 16-bit histogram counts (an
+    # assertion, or a wrong median: 365 on a two-level image)
+    img = np.full((64, 64), 40, np.uint8)
+    img[40:] = 200
+    with pytest.raises(VisionError, match="argument 'ksize'.*3 to 255"):
+        median(img, ksize=ksize)
+    assert median(img, ksize=255).shape == (64, 64)

@@ -173,3 +173,66 @@ def test_two_template_decision_on_rendered_washer_and_disc():
             assert max(d.score_a, d.score_b) > 0.85
     empty = np.ascontiguousarray(grey[200:300, 5:105])  # belt only
     assert two_template_decision(empty, templates["washer"], templates["disc"]).label == "none"
+
+
+def _nan_at(a, value=np.nan):
+    a = a.astype(np.float32)
+    a[3, 3] = value
+    return a
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("fn", [match_ssd, match_sad, match_ncc])
+def test_a_nan_or_inf_pixel_is_refused_not_a_perfect_match(fn, value):
+    img, tpl = _scene()
+    with pytest.raises(VisionError, match="argument 'image'.*finite"):
+        fn(_nan_at(img, value), tpl)
+    with pytest.raises(VisionError, match="argument 'template'.*finite"):
+        fn(img, _nan_at(tpl, value))
+
+
+def test_two_template_decision_names_the_template_and_refuses_nan():
+    img, tpl = _scene()
+    with pytest.raises(VisionError, match="argument 'template_a'"):
+        two_template_decision(img, "T", tpl)
+    with pytest.raises(VisionError, match="argument 'template_b'.*flat"):
+        two_template_decision(img, tpl, np.zeros((5, 5), np.float32))
+    with pytest.raises(VisionError, match="argument 'template_b'.*finite"):
+        two_template_decision(img, tpl, _nan_at(tpl))
+    with pytest.raises(VisionError, match="argument 'image'.*finite"):
+        two_template_decision(_nan_at(img), tpl, tpl[::-1].copy())
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [({"threshold": np.nan}, "threshold"), ({"threshold": 5.0}, "threshold"),
+     ({"threshold": -0.1}, "threshold"), ({"threshold": "0.7"}, "threshold"),
+     ({"margin": np.nan}, "margin"), ({"margin": -5}, "margin"), ({"margin": 2.5}, "margin"),
+     ({"margin": True}, "margin")],
+)
+def test_two_template_decision_checks_threshold_and_margin(kw, name):
+    img, tpl = _scene()
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        two_template_decision(img, tpl, tpl[::-1].copy(), **kw)
+
+
+@pytest.mark.parametrize(
+    "shape", ["ab", (16,), (np.nan, 16), (-16, 16), (16, 1e18), (16.0, 16), (0, 4), None]
+)
+def test_best_match_checks_template_shape(shape):
+    scores = np.zeros((5, 5), np.float32)
+    with pytest.raises(VisionError, match="argument 'template_shape'"):
+        best_match(scores, shape, method="ssd")
+
+
+def test_best_match_refuses_nan_scores():
+    scores = np.ones((5, 5), np.float32)
+    scores[2, 2] = np.nan
+    with pytest.raises(VisionError, match="argument 'scores'.*finite"):
+        best_match(scores, (3, 3), method="ncc")
+
+
+def test_match_sad_refuses_work_beyond_its_bound():
+    img = np.zeros((2000, 2000), np.uint8)
+    with pytest.raises(VisionError, match="argument 'template'.*2\\*\\*32"):
+        match_sad(img, img[:200, :200])

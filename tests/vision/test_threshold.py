@@ -183,3 +183,36 @@ def test_threshold_errors_name_the_argument():
         threshold_hysteresis(np.zeros((9, 9), np.uint8), low=50, high=40)
     with pytest.raises(VisionError, match="connectivity.*valid"):
         threshold_hysteresis(np.zeros((9, 9), np.uint8), low=10, high=40, connectivity=6)
+
+
+_G = np.tile(np.arange(0, 256, 4, dtype=np.uint8), (16, 1))
+
+
+@pytest.mark.parametrize(
+    ("call", "name"),
+    [(lambda: threshold_adaptive(_G, offset=np.nan), "offset"),
+     (lambda: threshold_adaptive(_G, offset=np.inf), "offset"),
+     (lambda: threshold_adaptive(_G, offset=1e18), "offset"),
+     (lambda: threshold_adaptive(_G, offset=-256), "offset"),
+     (lambda: threshold_adaptive(_G, offset="3"), "offset"),
+     (lambda: threshold_adaptive(_G, offset=True), "offset"),
+     (lambda: threshold_adaptive(_G, block_size=10**18 + 1), "block_size"),
+     (lambda: threshold_adaptive(_G, block_size=5.0), "block_size"),
+     (lambda: threshold_fixed(_G, value="100"), "value"),
+     (lambda: threshold_fixed(_G, value=None), "value"),
+     (lambda: threshold_fixed(_G, value=np.array([10, 20])), "value"),
+     (lambda: threshold_fixed(_G, value=np.nan), "value"),
+     (lambda: threshold_hysteresis(_G, low=10, high="100"), "high"),
+     (lambda: threshold_hysteresis(_G, low=None, high=100), "low"),
+     (lambda: threshold_hysteresis(_G, low=10, high=np.array([10, 20])), "high"),
+     (lambda: threshold_hysteresis(_G, low=10, high=100, connectivity=4.0), "connectivity"),
+     (lambda: threshold_hysteresis(_G, low=10, high=100, connectivity=True), "connectivity")],
+)
+def test_threshold_numbers_are_checked(call, name):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        call()
+
+
+def test_adaptive_offset_limits_are_accepted():
+    assert not threshold_adaptive(_G, block_size=3, offset=255).any()
+    assert threshold_adaptive(_G, block_size=3, offset=-255).all()

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_choice, check_colour, check_mask
+from cell.vision._checks import check_choice, check_colour, check_mask, check_range
 
 __all__ = ["ColourStats", "colour_stats", "convert_colour"]
 
@@ -90,7 +90,8 @@ def colour_stats(
     ----------
     image : uint8 (H, W, 3) in ``order`` ("rgb" or "bgr").
     mask : bool or uint8 (H, W), same height and width; must select >= 1 pixel.
-    highlight_v, highlight_s : limits (0..1) defining a specular-highlight pixel.
+    highlight_v, highlight_s : limits, each in [0, 1], defining a specular-highlight
+        pixel.
 
     Only the pixels under the mask are converted, so the cost is proportional to
     the region's area.
@@ -98,6 +99,8 @@ def colour_stats(
     image = check_colour("image", image)
     m = check_mask("mask", mask)
     check_choice("order", order, ORDERS)
+    highlight_v = check_range("highlight_v", highlight_v, 0.0, 1.0)
+    highlight_s = check_range("highlight_s", highlight_s, 0.0, 1.0)
     if m.shape != image.shape[:2]:
         raise VisionError(
             f"argument 'mask': shape {m.shape} does not match the image's {image.shape[:2]}"

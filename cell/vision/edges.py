@@ -15,9 +15,25 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_choice, check_gray, check_mask, check_odd
+from cell.vision._checks import (
+    MAX_SIZE,
+    check_choice,
+    check_finite,
+    check_gray,
+    check_int,
+    check_mask,
+    check_range,
+)
 
 __all__ = ["EdgeClosure", "Gradient", "canny", "contour_closure", "sobel"]
+
+MAX_AREA = 2**31 - 1  # pixels: the largest min_loop_area and min_fragment
+MAX_THRESHOLD = 1e6  # above any Sobel magnitude of a uint8 image (aperture 7: about 2.3e5)
+
+
+def _check_bool(name: str, value: object) -> None:
+    if not isinstance(value, bool | np.bool_):
+        raise VisionError(f"argument '{name}': expected True or False, got {value!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,7 +53,7 @@ def sobel(image: np.ndarray, *, ksize: int = 3, normalize: bool = False) -> Grad
 
     Parameters
     ----------
-    image : uint8 or float32 (H, W).
+    image : uint8 or float32 (H, W); float values must be finite.
     ksize : 1, 3, 5 or 7 (kernel size).
     normalize : divide by the kernel's gain so a ramp of slope 1 grey level per
         pixel gives a derivative of 1 (the raw 3x3 Sobel gives 8 on such a ramp and
@@ -46,8 +62,9 @@ def sobel(image: np.ndarray, *, ksize: int = 3, normalize: bool = False) -> Grad
 
     Wraps ``cv2.Sobel`` (float32 output, border reflect-101).
     """
-    image = check_gray("image", image, dtypes=(np.uint8, np.float32))
+    image = check_finite("image", check_gray("image", image, dtypes=(np.uint8, np.float32)))
     check_choice("ksize", ksize, (1, 3, 5, 7))
+    _check_bool("normalize", normalize)
     scale = 1.0
     if normalize:
         # sum of |derivative taps| * smoothing taps: slope-1 ramp -> gain
@@ -71,17 +88,21 @@ def canny(
     ----------
     image : uint8 (H, W) (smooth it first if it is noisy).
     low, high : hysteresis thresholds on the raw Sobel magnitude (``aperture`` 3:
-        a step of ``c`` grey levels gives a magnitude of about ``4 c``), low <= high.
+        a step of ``c`` grey levels gives a magnitude of about ``4 c``),
+        0 <= low <= high <= 1e6.
     aperture : Sobel size, 3, 5 or 7.
     l2 : use the L2 norm of the gradient (else |gx| + |gy|).
 
     Returns a bool (H, W) edge map, one pixel wide. Wraps ``cv2.Canny``.
     """
     image = check_gray("image", image)
-    check_odd("aperture", aperture, minimum=3)
-    if not 0 <= low <= high:
+    check_choice("aperture", aperture, (3, 5, 7))
+    _check_bool("l2", l2)
+    low = check_range("low", low, 0.0, MAX_THRESHOLD)
+    high = check_range("high", high, 0.0, MAX_THRESHOLD)
+    if low > high:
         raise VisionError(f"arguments 'low', 'high': need 0 <= low <= high, got {low}, {high}")
-    return cv2.Canny(image, float(low), float(high), apertureSize=aperture, L2gradient=l2) > 0
+    return cv2.Canny(image, float(low), float(high), apertureSize=aperture, L2gradient=bool(l2)) > 0
 
 
 @dataclass(frozen=True)
@@ -119,12 +140,16 @@ def contour_closure(
     Parameters
     ----------
     edges : bool or uint8 (H, W), thin edges (as from :func:`canny`).
-    max_gap : largest gap (pixels) still counted as closed; 0 is strict.
-    min_loop_area : smallest enclosed region counted as a loop (pixels); smaller
-        ones are noise rings.
-    min_fragment : smallest edge chain counted as a fragment (pixels).
+    max_gap : largest gap (pixels) still counted as closed, 0 (strict) to 4095; a
+        gap beyond twice the image's larger side bridges as much as that.
+    min_loop_area : smallest enclosed region counted as a loop (pixels, 0 to
+        2**31 - 1); smaller ones are noise rings.
+    min_fragment : smallest edge chain counted as a fragment (pixels, 0 to 2**31 - 1).
     """
     e = check_mask("edges", edges)
+    max_gap = min(check_int("max_gap", max_gap, 0, MAX_SIZE), 2 * max(e.shape))
+    min_loop_area = check_int("min_loop_area", min_loop_area, 0, MAX_AREA)
+    min_fragment = check_int("min_fragment", min_fragment, 0, MAX_AREA)
     n_edge = int(e.sum())
     if n_edge == 0:
         return EdgeClosure(0, 0, 0, 0, 0, 0, 0.0)
@@ -133,8 +158,6 @@ def contour_closure(
     neigh = cv2.filter2D(e.view(np.uint8), cv2.CV_16S, np.ones((3, 3), np.float32),
                          borderType=cv2.BORDER_CONSTANT) - e
     endpoints = int(np.sum(e & (neigh == 1)))
-    if max_gap < 0:
-        raise VisionError(f"argument 'max_gap': expected >= 0, got {max_gap!r}")
     wall = e
     if max_gap > 0:
         wall = cv2.dilate(e.view(np.uint8), np.ones((max_gap + 1, max_gap + 1), np.uint8)) > 0

@@ -19,9 +19,12 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_gray
+from cell.vision._checks import check_gray, check_int, check_range
 
 __all__ = ["FeatureMatch", "orb_match"]
+
+MAX_FEATURES = 100_000
+PATCH = 31  # ORB's patch size and edge threshold: no keypoint lies closer to the border
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,22 +63,32 @@ def orb_match(
     template, scene : uint8 (h, w) and (H, W) grey images. ORB needs texture and
         size: a template under about 60 px across yields too few keypoints (at the
         overhead camera's 1.65 px/mm most parts are smaller; use the wrist camera).
-    n_features : ORB keypoints per image.
-    ratio : Lowe's ratio test on the two nearest Hamming neighbours.
-    ransac_px : RANSAC reprojection threshold (pixels).
-    min_inliers : fewer inliers than this means "not found".
-    seed : seeds OpenCV's RNG, which RANSAC draws from, so the result is repeatable.
+    n_features : ORB keypoints per image, 4 to 100_000.
+    ratio : Lowe's ratio test on the two nearest Hamming neighbours, in (0, 1].
+    ransac_px : RANSAC reprojection threshold (pixels), in (0, 1000].
+    min_inliers : fewer inliers than this means "not found", 4 to 100_000 (a
+        homography takes 4).
+    seed : seeds OpenCV's RNG, which RANSAC draws from, so the result is
+        repeatable; 0 to 2**31 - 1.
 
-    Returns a ``FeatureMatch`` or ``None`` when the template is not found.
+    Returns a ``FeatureMatch`` or ``None`` when the template is not found (always
+    for a scene under 63 px on a side: ORB finds no keypoint there).
     """
     template = check_gray("template", template)
     scene = check_gray("scene", scene)
-    if not 0 < ratio <= 1:
-        raise VisionError(f"argument 'ratio': expected in (0, 1], got {ratio!r}")
+    if check_range("ratio", ratio, 0.0, 1.0) == 0:
+        raise VisionError("argument 'ratio': expected a number in (0, 1], got 0")
+    n_features = check_int("n_features", n_features, 4, MAX_FEATURES)
+    if check_range("ransac_px", ransac_px, 0.0, 1000.0) == 0:
+        raise VisionError("argument 'ransac_px': expected a number in (0, 1000], got 0")
+    min_inliers = check_int("min_inliers", min_inliers, 4, MAX_FEATURES)
+    seed = check_int("seed", seed, 0, 2**31 - 1)
+    if min(scene.shape) < 2 * PATCH + 1:  # and ORB's pyramid fails on a 1-pixel side
+        return None
     orb = cv2.ORB_create(nfeatures=n_features)
     # ORB ignores a 31 px border (its patch size); pad the template by replicating its
     # edge so keypoints near its outline count, then shift them back.
-    pad = 31
+    pad = PATCH
     padded = cv2.copyMakeBorder(template, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
     kt, dt = orb.detectAndCompute(padded, None)
     ks, ds = orb.detectAndCompute(scene, None)
@@ -83,12 +96,12 @@ def orb_match(
         return None
     pairs = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(dt, ds, k=2)
     good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < ratio * p[1].distance]
-    if len(good) < max(4, min_inliers):
+    if len(good) < min_inliers:
         return None
     src = np.float32([kt[m.queryIdx].pt for m in good]).reshape(-1, 1, 2) - pad
     dst = np.float32([ks[m.trainIdx].pt for m in good]).reshape(-1, 1, 2)
-    cv2.setRNGSeed(int(seed))
-    H, inl = cv2.findHomography(src, dst, cv2.RANSAC, ransac_px)
+    cv2.setRNGSeed(seed)
+    H, inl = cv2.findHomography(src, dst, cv2.RANSAC, float(ransac_px))
     if H is None or inl is None or int(inl.sum()) < min_inliers:
         return None
     h, w = template.shape

@@ -15,13 +15,14 @@ navigation", Computer 22(6), 1989; Cormen et al., *Introduction to Algorithms*,
 
 from __future__ import annotations
 
+import numbers
 from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_array, check_choice, check_gray
+from cell.vision._checks import check_array, check_choice, check_gray, check_int, check_range
 from cell.vision.labeling import Components, label_components
 from cell.vision.threshold import threshold_fixed, threshold_otsu
 
@@ -54,38 +55,56 @@ def occupancy_grid(
     Parameters
     ----------
     image : uint8 (H, W) grey image of the table.
-    cell_px : cell edge in pixels (>= 1); a partial last row/column counts as a cell.
-    threshold : grey level; None uses Otsu's.
+    cell_px : cell edge in pixels, 1 to 2**31 - 1; a partial last row/column counts
+        as a cell (a cell larger than the image is one cell).
+    threshold : grey level 0..255; None uses Otsu's.
     polarity : "bright" (objects brighter than the table) or "dark".
-    min_area : objects smaller than this (pixels) are noise and ignored.
-    fill : a cell is occupied when more than this fraction (0..1) of its pixels
-        belong to objects (0: any object pixel).
+    min_area : objects smaller than this (pixels, 0 to 2**31 - 1) are noise and
+        ignored.
+    fill : a cell is occupied when more than this fraction, in [0, 1), of its
+        pixels belong to objects (0: any object pixel).
     """
     image = check_gray("image", image)
-    if not isinstance(cell_px, int | np.integer) or cell_px < 1:
-        raise VisionError(f"argument 'cell_px': expected an integer >= 1, got {cell_px!r}")
-    if not 0.0 <= fill < 1.0:
-        raise VisionError(f"argument 'fill': expected in [0, 1), got {fill!r}")
+    cell_px = check_int("cell_px", cell_px, 1, 2**31 - 1)
+    if threshold is not None:
+        threshold = check_range("threshold", threshold, 0, 255)
+    if check_range("fill", fill, 0.0, 1.0) == 1.0:
+        raise VisionError("argument 'fill': expected a number in [0, 1), got 1.0")
+    min_area = check_int("min_area", min_area, 0, 2**31 - 1)
     t = float(threshold_otsu(image) if threshold is None else threshold)
     mask = threshold_fixed(image, value=t, polarity=polarity)
+    if min_area > mask.size:  # no object can be that large (label_components takes <= H*W)
+        mask, min_area = np.zeros_like(mask), 0
     objects = label_components(mask, connectivity=8, min_area=min_area)
-    occ = objects.labels > 0
+    occ = (objects.labels > 0).astype(np.int64)
     h, w = occ.shape
-    rows, cols = -(-h // cell_px), -(-w // cell_px)
-    padded = np.zeros((rows * cell_px, cols * cell_px), np.float64)
-    padded[:h, :w] = occ
-    frac = padded.reshape(rows, cell_px, cols, cell_px).sum(axis=(1, 3))
-    area = np.full((rows, cols), float(cell_px * cell_px))
-    area[-1, :] = (h - (rows - 1) * cell_px) * cell_px
-    area[:, -1] = cell_px * (w - (cols - 1) * cell_px)
-    area[-1, -1] = (h - (rows - 1) * cell_px) * (w - (cols - 1) * cell_px)
-    return OccupancyGrid(frac / area > fill, int(cell_px), t, objects)
+    top, left = np.arange(0, h, cell_px), np.arange(0, w, cell_px)  # each cell's first pixel
+    count = np.add.reduceat(np.add.reduceat(occ, top, axis=0), left, axis=1)
+    area = np.outer(np.diff(top, append=h), np.diff(left, append=w))
+    return OccupancyGrid(count / area > fill, cell_px, t, objects)
 
 
 _STEPS = {
     4: ((-1, 0), (1, 0), (0, -1), (0, 1)),
     8: ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)),
 }
+
+
+def _free_cell(name: str, cell: object, grid: np.ndarray) -> tuple[int, int]:
+    """``cell`` as a (row, col) pair of ints, inside ``grid`` and free."""
+    try:
+        r, c = cell  # type: ignore[misc]
+    except (TypeError, ValueError):
+        r = c = None
+    if not all(isinstance(v, numbers.Integral) and not isinstance(v, bool | np.bool_)
+               for v in (r, c)):
+        raise VisionError(f"argument '{name}': expected a (row, col) pair of integers, got {cell!r}")
+    rows, cols = grid.shape
+    if not (0 <= r < rows and 0 <= c < cols):
+        raise VisionError(f"argument '{name}': cell {(r, c)} is outside the {rows}x{cols} grid")
+    if grid[r, c]:
+        raise VisionError(f"argument '{name}': cell {(r, c)} is occupied")
+    return int(r), int(c)
 
 
 def bfs_path(
@@ -100,7 +119,7 @@ def bfs_path(
     Parameters
     ----------
     grid : bool (rows, cols), True = occupied.
-    start, goal : (row, col) cells; both must be free.
+    start, goal : (row, col) cells, integers inside the grid; both must be free.
     connectivity : 4 (edge moves) or 8 (also diagonal moves, allowed even between
         two occupied cells that share only a corner).
 
@@ -110,12 +129,7 @@ def bfs_path(
     g = check_array("grid", grid, dtypes=(np.bool_,), ndim=(2,))
     check_choice("connectivity", connectivity, (4, 8))
     rows, cols = g.shape
-    for name, (r, c) in (("start", start), ("goal", goal)):
-        if not (0 <= r < rows and 0 <= c < cols):
-            raise VisionError(f"argument '{name}': cell {(r, c)} is outside the {rows}x{cols} grid")
-        if g[r, c]:
-            raise VisionError(f"argument '{name}': cell {(r, c)} is occupied")
-    start, goal = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
+    start, goal = _free_cell("start", start, g), _free_cell("goal", goal, g)
     parent = -np.ones((rows, cols, 2), np.int64)
     seen = g.copy()
     seen[start] = True

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_mask
+from cell.vision._checks import check_int, check_mask
 
 __all__ = [
     "ShapeDescriptors",
@@ -36,6 +36,8 @@ __all__ = [
     "orientation",
     "perimeter",
 ]
+
+MAX_AREA = 2**31 - 1  # pixels: the largest min_area and min_hole_area
 
 
 @dataclass(frozen=True)
@@ -126,17 +128,32 @@ def circularity(mask: np.ndarray) -> float:
     return perimeter(m) ** 2 / (4 * math.pi * _filled(m).sum())
 
 
+def _nonzero_perimeter(mask: np.ndarray) -> float:
+    p = perimeter(mask)
+    if p == 0:
+        raise VisionError("argument 'mask': the region is a single pixel, whose outline has "
+                          "length 0, so its compactness A / P^2 is undefined")
+    return p
+
+
 def compactness(mask: np.ndarray) -> float:
-    """``A / P^2`` (pixel count over squared perimeter): 1/(4 pi) ~ 0.080 for a disc."""
+    """``A / P^2`` (pixel count over squared perimeter): 1/(4 pi) ~ 0.080 for a disc.
+
+    Undefined for a single pixel (its outline, through the pixel centre, has length
+    0): a ``VisionError``, as for an empty mask.
+    """
     m = check_mask("mask", mask)
-    p = perimeter(m)
-    return float(m.sum()) / (p * p) if p > 0 else float("nan")
+    p = _nonzero_perimeter(m)
+    return float(m.sum()) / (p * p)
 
 
 def hu_moments(mask: np.ndarray) -> np.ndarray:
     """The seven Hu invariants (7,) of the region, invariant to translation, scale and
-    rotation (the seventh changes sign under reflection). Wraps ``cv2.HuMoments``."""
+    rotation (the seventh changes sign under reflection). Wraps ``cv2.HuMoments``.
+    An empty mask is a ``VisionError``."""
     m = check_mask("mask", mask)
+    if not m.any():
+        raise VisionError("argument 'mask': the mask is empty")
     return cv2.HuMoments(cv2.moments(m.view(np.uint8), binaryImage=True)).ravel()
 
 
@@ -157,8 +174,9 @@ def orientation(mask: np.ndarray) -> float:
 
 def count_holes(mask: np.ndarray, *, min_area: int = 1) -> int:
     """Number of holes (background regions enclosed by the region, 4-connected,
-    at least ``min_area`` pixels) in the largest region of ``mask``."""
+    at least ``min_area`` pixels, 0 to 2**31 - 1) in the largest region of ``mask``."""
     m = check_mask("mask", mask)
+    min_area = check_int("min_area", min_area, 0, MAX_AREA)
     filled = _filled(m)
     holes = (filled & ~m).view(np.uint8)
     n, _, stats, _ = cv2.connectedComponentsWithStats(holes, connectivity=4)
@@ -172,12 +190,17 @@ def describe_shape(mask: np.ndarray, *, min_hole_area: int = 4) -> ShapeDescript
     ----------
     mask : bool or uint8 (H, W), one region (if several, descriptors that need an
         outline use the largest; area and moments use all set pixels).
-    min_hole_area : holes smaller than this (pixels) are noise and not counted.
+    min_hole_area : holes smaller than this (pixels, 0 to 2**31 - 1) are noise
+        and not counted.
+
+    A single-pixel region (outline of length 0, compactness undefined) is a
+    ``VisionError``, as is an empty mask.
     """
     m = check_mask("mask", mask)
+    min_hole_area = check_int("min_hole_area", min_hole_area, 0, MAX_AREA)
     if not m.any():
         raise VisionError("argument 'mask': the mask is empty")
-    p = perimeter(m)
+    p = _nonzero_perimeter(m)
     filled = _filled(m)
     length, width, angle = _min_area_rect(m)
     mom = cv2.moments(m.view(np.uint8), binaryImage=True)
@@ -191,7 +214,7 @@ def describe_shape(mask: np.ndarray, *, min_hole_area: int = 4) -> ShapeDescript
         rect_angle=angle,
         aspect_ratio=length / width,
         circularity=p * p / (4 * math.pi * filled.sum()),
-        compactness=area / (p * p) if p > 0 else float("nan"),
+        compactness=area / (p * p),
         hu=tuple(float(v) for v in cv2.HuMoments(mom).ravel()),
         orientation=orientation(m),
         centroid=(mom["m10"] / mom["m00"], mom["m01"] / mom["m00"]),

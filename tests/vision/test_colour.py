@@ -63,3 +63,11 @@ def test_colour_errors_name_the_argument():
         convert_colour(np.zeros((4, 4), np.uint8), to="hsv")
     with pytest.raises(VisionError, match="to.*valid"):
         convert_colour(img, to="yuv")
+
+
+@pytest.mark.parametrize("name", ["highlight_v", "highlight_s"])
+@pytest.mark.parametrize("value", [np.nan, 5.0, -1, "0.9", np.inf, True])
+def test_colour_stats_refuses_bad_highlight_limits(name, value):
+    img = np.full((4, 4, 3), 200, np.uint8)
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        colour_stats(img, np.ones((4, 4), bool), **{name: value})

@@ -150,3 +150,64 @@ def test_harris_finds_each_vertex_of_a_rendered_l_bracket(finish, yaw):
     assert len(pts) == 6
     assert d.min(axis=0).max() < 2.0
     assert sorted(d.argmin(axis=0).tolist()) == list(range(6))
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("min_distance", np.nan), ("min_distance", np.inf), ("min_distance", "3"),
+    ("min_distance", 2**31), ("min_distance", 0), ("min_distance", 2.5),
+    ("threshold", "0"), ("threshold", np.nan), ("threshold", np.inf),
+])
+def test_nms_refuses_bad_numbers(name, value):
+    r = np.zeros((20, 20), np.float32)
+    kw = {"min_distance": 3, "threshold": 0.0, name: value}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        non_max_suppression(r, **kw)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_nms_and_response_refuse_non_finite_pixels(bad):
+    a = np.random.default_rng(0).random((40, 40)).astype(np.float32)
+    a[30, 30] = bad
+    with pytest.raises(VisionError, match="argument 'response'"):
+        non_max_suppression(a, min_distance=3, threshold=0.0)
+    with pytest.raises(VisionError, match="argument 'image'"):
+        harris_response(a)
+
+
+def test_nms_window_wider_than_the_image_keeps_the_global_maximum():
+    r = np.random.default_rng(1).random((30, 40)).astype(np.float32)
+    pts = non_max_suppression(r, min_distance=10**9, threshold=0.0)  # allocated exabytes
+    y, x = np.unravel_index(r.argmax(), r.shape)
+    np.testing.assert_array_equal(pts, [[x, y]])
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("k", np.nan), ("k", np.inf), ("k", "0.04"), ("k", 1e18), ("k", -0.1),
+    ("block_size", 2**31 + 1), ("block_size", 3.0), ("block_size", "3"),
+])
+def test_response_refuses_bad_numbers(name, value):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        harris_response(np.zeros((20, 20), np.uint8), **{name: value})
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("threshold_rel", "0.1"), ("threshold_rel", np.nan), ("threshold_rel", 1.0),
+    ("block_size", "3"), ("block_size", 4), ("block_size", 1), ("smooth", np.nan),
+    ("smooth", -1), ("smooth", np.inf), ("smooth", 1e18), ("smooth", "1"), ("k", np.nan),
+    ("min_distance", np.nan), ("min_distance", -1),
+])
+@pytest.mark.parametrize("flat", [False, True])
+def test_harris_corners_refuses_bad_arguments(name, value, flat):
+    img = np.zeros((20, 20), np.uint8)
+    if not flat:
+        img[5:, 5:] = 255
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        harris_corners(img, **{name: value})
+
+
+@pytest.mark.parametrize("size", [6, 7, 10, 12])
+def test_harris_corners_on_a_tiny_image(size):
+    a = np.zeros((size, size), np.uint8)
+    a[3:, 3:] = 255
+    pts = harris_corners(a, min_distance=4)
+    assert len(pts) >= 1 and np.all(np.hypot(pts[:, 0] - 2.5, pts[:, 1] - 2.5) < 2.0)

@@ -96,3 +96,63 @@ def test_canny_thresholds_on_a_rendered_bracket_in_dim_light():
     assert lo_clutter > 0.9 and lo.fragments > 100 and lo.closure < 0.5
     assert ok_recall > 0.98 and ok_clutter < 0.05 and ok.loops == 1 and ok.closure > 0.9
     assert hi_recall < 0.5 and hi.loops == 0
+
+
+def _ring():
+    e = np.zeros((40, 40), np.uint8)
+    cv2.rectangle(e, (5, 5), (30, 30), 1, 1)
+    return e.astype(bool)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("aperture", 9), ("aperture", 10001), ("aperture", 3.0), ("aperture", True),
+    ("l2", "no"), ("l2", 1), ("low", "10"), ("low", np.nan), ("low", -1),
+    ("high", np.inf), ("high", np.nan), ("high", "100"),
+])
+def test_canny_refuses_bad_arguments(name, value):
+    img = np.zeros((20, 20), np.uint8)
+    kw = {"low": 10, "high": 100, name: value}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        canny(img, **kw)
+
+
+def test_canny_refuses_infinite_thresholds():
+    with pytest.raises(VisionError, match="argument 'low'"):
+        canny(np.zeros((20, 20), np.uint8), low=np.inf, high=np.inf)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("max_gap", -1), ("max_gap", np.nan), ("max_gap", 1.5), ("max_gap", "2"), ("max_gap", 10**5),
+    ("max_gap", True), ("min_loop_area", np.nan), ("min_loop_area", "20"),
+    ("min_loop_area", -1), ("min_fragment", np.nan), ("min_fragment", "3"), ("min_fragment", 2.5),
+])
+@pytest.mark.parametrize("empty", [False, True])
+def test_contour_closure_refuses_bad_numbers(name, value, empty):
+    edges = np.zeros((40, 40), bool) if empty else _ring()
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        contour_closure(edges, **{name: value})
+
+
+def test_contour_closure_large_gap_is_bounded_by_the_image():
+    # a gap wider than the image bridges everything; the kernel stays image-sized
+    wide = contour_closure(_ring(), max_gap=4095)
+    assert wide == contour_closure(_ring(), max_gap=80)
+    assert wide.closure == 0.0  # the dilated edges fill the image: nothing is enclosed
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_sobel_refuses_non_finite_pixels(bad):
+    img = np.zeros((20, 20), np.float32)
+    img[10, 10] = bad
+    with pytest.raises(VisionError, match="argument 'image'"):
+        sobel(img)
+
+
+@pytest.mark.parametrize(("name", "value"), [("ksize", 3.0), ("ksize", True), ("normalize", "yes")])
+def test_sobel_refuses_bad_arguments(name, value):
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        sobel(np.zeros((20, 20), np.uint8), **{name: value})
+
+
+def test_contour_closure_defaults_on_a_one_pixel_image():
+    assert contour_closure(np.ones((1, 1), bool)).edge_pixels == 1

@@ -66,3 +66,22 @@ def test_orb_errors_name_the_argument():
         orb_match(_bracket(), np.zeros((10, 10, 3), np.uint8))
     with pytest.raises(VisionError, match="ratio"):
         orb_match(_bracket(), _bracket(), ratio=1.5)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("n_features", 0), ("n_features", -5), ("n_features", 10.5), ("n_features", 10**12),
+    ("ratio", "0.7"), ("ratio", np.nan), ("ratio", 0), ("ransac_px", "3"), ("ransac_px", np.nan),
+    ("ransac_px", -3), ("ransac_px", 0), ("ransac_px", np.inf), ("min_inliers", np.nan),
+    ("min_inliers", -5), ("min_inliers", "10"), ("min_inliers", 10.0), ("seed", "x"),
+    ("seed", np.nan), ("seed", 2**40), ("seed", -1),
+])
+def test_orb_refuses_bad_numbers(name, value):
+    scene, _ = _scene_with(_bracket(), 30, (160, 120))
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        orb_match(_bracket(), scene, **{name: value})
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 200), (200, 1), (62, 200)])
+def test_orb_in_a_scene_too_small_for_keypoints_finds_nothing(shape):
+    scene = np.random.default_rng(0).integers(0, 256, shape).astype(np.uint8)
+    assert orb_match(_bracket(), scene) is None

@@ -76,3 +76,44 @@ def test_occupancy_errors_name_the_argument():
         bfs_path(grid, (0, 0), (1, 1), connectivity=6)
     with pytest.raises(VisionError, match="cell_px"):
         occupancy_grid(np.zeros((5, 5), np.uint8), cell_px=0)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("threshold", np.nan), ("threshold", 300), ("threshold", "100"), ("fill", "0.5"),
+    ("fill", np.nan), ("fill", 1.0), ("min_area", np.nan), ("min_area", "20"), ("min_area", -1),
+    ("cell_px", 2.0), ("cell_px", True), ("cell_px", 0), ("cell_px", 2**40),
+])
+def test_occupancy_grid_refuses_bad_numbers(name, value):
+    img = np.zeros((20, 30), np.uint8)
+    kw = {"cell_px": 4, name: value}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        occupancy_grid(img, **kw)
+
+
+def test_occupancy_grid_with_a_cell_larger_than_the_image():
+    # the image used to be padded to whole cells: 74.5 GiB at cell_px=10**5
+    img = np.zeros((20, 30), np.uint8)
+    img[5:9, 5:9] = 255
+    occ = occupancy_grid(img, cell_px=10**5, threshold=100, min_area=1)
+    assert occ.grid.shape == (1, 1) and occ.grid[0, 0] and occ.cell_px == 10**5
+    assert not occupancy_grid(img, cell_px=10**5, threshold=100, min_area=1, fill=0.5).grid[0, 0]
+
+
+@pytest.mark.parametrize("name", ["start", "goal"])
+@pytest.mark.parametrize("cell", [(0.5, 0), (0.0, 0.0), (3, 3.5), (True, 1), "ab", 5, (1, 2, 3),
+                                  None, (np.nan, 1)])
+def test_bfs_refuses_cells_that_are_not_integer_pairs(name, cell):
+    kw = {"start": (0, 0), "goal": (3, 3), name: cell}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        bfs_path(np.zeros((8, 8), bool), **kw)
+
+
+def test_bfs_takes_numpy_integer_cells():
+    path = bfs_path(np.zeros((4, 4), bool), np.array([0, 0]), (np.int64(0), np.int32(2)))
+    assert path == [(0, 0), (0, 1), (0, 2)]
+
+
+def test_occupancy_grid_of_an_image_smaller_than_min_area():
+    img = np.full((1, 1), 255, np.uint8)
+    assert not occupancy_grid(img, cell_px=4, threshold=100).grid.any()  # min_area 20 > 1 pixel
+    assert occupancy_grid(img, cell_px=4, threshold=100, min_area=1).grid.all()

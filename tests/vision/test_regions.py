@@ -77,3 +77,56 @@ def test_region_errors_name_the_argument():
         region_grow(img, np.array([[2, 2]]), tolerance=5, criterion="max")
     with pytest.raises(VisionError, match="min_size"):
         split_and_merge(img, tolerance=5, min_size=3)
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("tolerance", np.nan), ("tolerance", 0), ("tolerance", -1), ("tolerance", "5"),
+    ("tolerance", np.inf), ("tolerance", 1e6), ("max_iterations", -1), ("max_iterations", 2.5),
+    ("max_iterations", np.nan), ("max_iterations", "9"), ("max_iterations", True),
+    ("max_iterations", 10**12),
+])
+def test_region_grow_refuses_bad_numbers(name, value):
+    img = np.zeros((10, 10), np.uint8)
+    kw = {"tolerance": 5, name: value}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        region_grow(img, np.array([[2, 2]]), **kw)
+
+
+@pytest.mark.slow  # 2**24 seeds: about 2.5 s and 850 MB
+def test_region_grow_labels_beyond_float32_precision_stay_exact():
+    # 2**24 + 3 seeds (all but the last on one pixel): the last label is not a float32
+    img = np.full((8, 8), 100, np.uint8)
+    img[0, 0] = 0
+    seeds = np.zeros((2**24 + 3, 2))
+    seeds[-1] = (5, 5)
+    labels = region_grow(img, seeds, tolerance=5)
+    assert labels[0, 0] == 1 and (labels.ravel()[1:] == 2**24 + 3).all()
+
+
+@pytest.mark.parametrize("criterion", ["mean", "seed"])
+@pytest.mark.parametrize("connectivity", [4, 8])
+def test_region_grow_seed_criterion_is_a_flood_fill(criterion, connectivity):
+    rng = np.random.default_rng(3)
+    img = cv2.GaussianBlur(rng.integers(0, 256, (40, 50)).astype(np.uint8), (7, 7), 3)
+    labels = region_grow(img, np.array([[25, 20]]), tolerance=6, criterion=criterion,
+                         connectivity=connectivity)
+    flood = np.zeros((42, 52), np.uint8)
+    cv2.floodFill(img.copy(), flood, (25, 20), 0, 6, 6,
+                  connectivity | cv2.FLOODFILL_FIXED_RANGE | cv2.FLOODFILL_MASK_ONLY | (1 << 8))
+    if criterion == "seed":
+        assert np.array_equal(labels == 1, flood[1:-1, 1:-1] > 0)
+    else:
+        assert (labels == 1).sum() > 1
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("tolerance", np.nan), ("tolerance", -1), ("tolerance", "5"), ("tolerance", 256),
+    ("min_size", 2.0), ("min_size", np.nan), ("min_size", "2"), ("min_size", 0),
+    ("min_size", 2**20), ("min_area", np.nan), ("min_area", -4), ("min_area", "3"),
+    ("min_area", 2**31),
+])
+def test_split_and_merge_refuses_bad_numbers(name, value):
+    img = np.zeros((10, 10), np.uint8)
+    kw = {"tolerance": 5, name: value}
+    with pytest.raises(VisionError, match=f"argument '{name}'"):
+        split_and_merge(img, **kw)

@@ -149,3 +149,37 @@ def test_shape_errors_name_the_argument():
         describe_shape(np.zeros((5, 5), bool))
     with pytest.raises(VisionError, match="mask"):
         perimeter(np.zeros((5, 5), np.float32))
+
+
+def _holed_square():
+    mask = np.zeros((30, 30), bool)
+    mask[5:25, 5:25] = True
+    mask[10:13, 10:13] = False
+    return mask
+
+
+@pytest.mark.parametrize("value", [np.nan, -1, "2", 2.0, True, 2**31])
+def test_hole_area_limits_are_checked(value):
+    with pytest.raises(VisionError, match="argument 'min_area'"):
+        count_holes(_holed_square(), min_area=value)
+    with pytest.raises(VisionError, match="argument 'min_hole_area'"):
+        describe_shape(_holed_square(), min_hole_area=value)
+
+
+def test_a_single_pixel_has_no_compactness():
+    a = np.zeros((5, 5), bool)
+    a[2, 2] = True
+    with pytest.raises(VisionError, match="mask.*single pixel"):
+        compactness(a)
+    with pytest.raises(VisionError, match="mask.*single pixel"):
+        describe_shape(a)
+    a[2, 3] = True  # two pixels: an outline of length 2
+    assert compactness(a) == pytest.approx(0.5)
+
+
+def test_every_shape_function_refuses_an_empty_mask():
+    empty = np.zeros((5, 5), bool)
+    for fn in (perimeter, aspect_ratio, circularity, compactness, hu_moments, orientation,
+               count_holes, describe_shape):
+        with pytest.raises(VisionError, match="mask.*empty"):
+            fn(empty)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_image
+from cell.vision._checks import check_image, check_int
 
 __all__ = ["invert", "quantize"]
 
@@ -40,14 +40,15 @@ def quantize(image: np.ndarray, *, bits: int, centre: bool = False) -> np.ndarra
     Parameters
     ----------
     image : uint8 (H, W) or (H, W, 3).
-    bits : 1..8; 8 returns a copy.
+    bits : integer 1..8; 8 returns a copy.
+    centre : bool.
 
     Reference: Gonzalez & Woods 2.4 (intensity quantization, false contouring).
     """
     image = check_image("image", image)
-    if not isinstance(bits, int | np.integer) or not 1 <= bits <= 8:
-        raise VisionError(f"argument 'bits': expected an integer in 1..8, got {bits!r}")
-    shift = 8 - int(bits)
+    shift = 8 - check_int("bits", bits, 1, 8)
+    if not isinstance(centre, bool | np.bool_):
+        raise VisionError(f"argument 'centre': expected True or False, got {centre!r}")
     out = (image >> shift) << shift
     if centre and shift > 0:
         out = out + np.uint8(1 << (shift - 1))

@@ -131,3 +131,95 @@ def test_geometry_errors_name_the_argument():
     with pytest.raises(VisionError, match="resolution"):
         birdseye_view(np.zeros((480, 640), np.uint8), cam, x_range=(0, 1), y_range=(0, 1),
                       resolution=0)
+
+
+_SQ = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
+
+
+@pytest.mark.parametrize("k_src, k_dst", [(1e200, 1.0), (1.0, 1e39), (1e-30, 1.0), (1e-14, 1.0)])
+def test_homography_from_points_is_exact_far_beyond_float32(k_src, k_dst):
+    """A pure scaling between squares of any size: no NaN (float32 overflow), no
+    'collinear' for a tiny square."""
+    H = homography_from_points(_SQ * k_src, _SQ * k_dst)
+    np.testing.assert_allclose(H, np.diag([k_dst / k_src, k_dst / k_src, 1.0]), rtol=1e-6)
+
+
+def test_homography_from_points_refuses_an_overflowing_homography():
+    with pytest.raises(VisionError, match="'src', 'dst'.*overflows"):
+        homography_from_points(_SQ * 1e-300, _SQ * 1e300)
+
+
+@pytest.mark.parametrize("H, culprit", [
+    (np.full((3, 3), np.nan), "argument 'H': holds NaN"),
+    (np.zeros((3, 3)), "argument 'H': singular"),
+    ("abc", "argument 'H': expected a"),
+    (np.array([[1, 0, 0], [0, 1, 0], [1, 0, 1.0]]), "argument 'points': point \\[-1.0, 5.0\\]"),
+])
+def test_apply_homography_refuses_what_gives_no_finite_point(H, culprit):
+    with pytest.raises(VisionError, match=culprit):
+        apply_homography(H, [[-1, 5]])
+
+
+@pytest.mark.parametrize("z, culprit", [
+    (np.nan, "argument 'z': nan is outside"),
+    (np.inf, "argument 'z': inf is outside"),
+    ("0", "argument 'z': expected a number"),
+    (0.48, "argument 'z': the plane z = 0.48 must lie below the camera"),
+    (1.0, "argument 'z'"),
+])
+def test_plane_height_is_checked(z, culprit):
+    cam = _overhead()
+    with pytest.raises(VisionError, match=culprit):
+        table_homography(cam, z=z)
+    with pytest.raises(VisionError, match=culprit):
+        pixel_to_table(cam, [[320, 240]], z=z)
+    with pytest.raises(VisionError, match=culprit):
+        birdseye_view(np.zeros((480, 640), np.uint8), cam, x_range=(-0.05, 0.05),
+                      y_range=(0.4, 0.5), resolution=0.002, z=z)
+
+
+def test_pixel_to_table_of_no_pixels_is_no_points():
+    assert pixel_to_table(_overhead(), np.zeros((0, 2))).shape == (0, 3)
+
+
+@pytest.mark.parametrize("kwargs, culprit", [
+    ({"resolution": 1e-9}, "argument 'resolution': .* 4194304 pixels"),  # 71 PiB of grid
+    ({"resolution": 1.0}, "argument 'resolution': .* 0 x 0 pixel view"),
+    ({"resolution": np.inf}, "argument 'resolution'"),
+    ({"resolution": np.nan}, "argument 'resolution'"),
+    ({"resolution": "0.002"}, "argument 'resolution'"),
+    ({"x_range": (np.nan, 0.05)}, "argument 'x_range'"),
+    ({"x_range": (-np.inf, 0.05)}, "argument 'x_range'"),
+    ({"x_range": 0.05}, "argument 'x_range': expected \\(min, max\\)"),
+    ({"x_range": (0, 1, 2)}, "argument 'x_range': expected \\(min, max\\)"),
+    ({"y_range": (0.5, 0.4)}, "argument 'y_range': expected \\(min, max\\) with min < max"),
+    ({"image": np.zeros((100, 100), np.uint8)}, "argument 'image': 100 x 100 pixels"),
+])
+def test_birdseye_view_refuses_bad_extents(kwargs, culprit):
+    call = {"image": np.zeros((480, 640), np.uint8), "x_range": (-0.05, 0.05),
+            "y_range": (0.4, 0.5), "resolution": 0.002, **kwargs}
+    image = call.pop("image")
+    with pytest.raises(VisionError, match=culprit):
+        birdseye_view(image, _overhead(), **call)
+
+
+_OBJ = [[0, 0], [0.1, 0], [0.1, 0.1], [0, 0.1]]
+_IMG = [[100, 100], [200, 100], [200, 200], [100, 200]]
+_K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
+
+
+@pytest.mark.parametrize("args, culprit", [
+    ((_OBJ, _IMG, np.full((3, 3), np.nan)), "argument 'K': holds NaN"),
+    ((_OBJ, _IMG, np.zeros((3, 3))), "argument 'K': expected intrinsics"),
+    ((_OBJ, _IMG, "K"), "argument 'K'"),
+    ((_OBJ, _IMG, _K, [0.1, 0.2, 0.3]), "argument 'dist': expected 4, 5, 8, 12 or 14"),
+    ((_OBJ, _IMG, _K, [np.nan] * 5), "argument 'dist': holds NaN"),
+    ((_OBJ, _IMG, _K, "abcde"), "argument 'dist'"),
+    (([[0, 0], [0.1, 0], [0.2, 0], [0.3, 0]], _IMG, _K), "argument 'object_points': .* one line"),
+    (([[0, 0]] * 4, _IMG, _K), "argument 'object_points': .* one line"),
+    (("abcd", _IMG, _K), "argument 'object_points'"),
+    ((_OBJ, [[100, 100]] * 4, _K), "argument 'image_points': PnP found no"),
+])
+def test_solve_planar_pnp_refuses_what_gives_no_pose(args, culprit):
+    with pytest.raises(VisionError, match=culprit):
+        solve_planar_pnp(*args)

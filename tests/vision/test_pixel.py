@@ -39,3 +39,15 @@ def test_quantize_rejects_bad_input():
         quantize(np.zeros((2, 2), np.float64), bits=4)
     with pytest.raises(VisionError, match="image"):
         invert(np.zeros((2, 2, 4), np.uint8))
+
+
+@pytest.mark.parametrize("bits", [True, 4.0, "4", np.nan, 9])
+def test_quantize_refuses_bits_that_are_not_an_integer_in_1_to_8(bits):
+    with pytest.raises(VisionError, match="argument 'bits': expected an integer from 1 to 8"):
+        quantize(np.zeros((2, 2), np.uint8), bits=bits)
+
+
+@pytest.mark.parametrize("centre", ["no", 1, None])
+def test_quantize_refuses_a_centre_that_is_not_a_bool(centre):
+    with pytest.raises(VisionError, match="argument 'centre'"):
+        quantize(np.zeros((2, 2), np.uint8), bits=3, centre=centre)

@@ -112,3 +112,65 @@ def test_rle_errors_name_the_argument():
         rle_encode(np.zeros((2, 2), np.float32))
     with pytest.raises(VisionError, match="data"):
         rle_from_bytes(b"nope")
+
+
+def _head(h, w, binary, n):
+    import struct
+    return b"RLE1" + struct.pack("<IIBI", h, w, binary, n)
+
+
+_MASK = np.zeros((8, 8), bool)
+_MASK[2:5, 3:7] = True
+
+
+@pytest.mark.parametrize("data", [
+    b"RLE1",  # no header
+    b"RLE1" + bytes(8),  # a short header
+    _head(2, 2, 1, 2),  # a mask's header, no first value
+    _head(60000, 60000, 1, 2**32 - 1) + b"\0" + b"\1" * 64,  # 4e9 runs in 65 bytes
+    _head(2, 2, 0, 2) + b"\x01\x02" + b"\xff" * 9 + b"\x01" + b"\x05",  # a 10-byte varint
+    _head(2, 2, 0, 2) + b"\x01\x02" + b"\xff" * 10 + b"\x7f" + b"\x05",  # over-long varint
+    rle_to_bytes(rle_encode(_MASK)) + b"junk",  # trailing bytes
+    _head(2, 2, 0, 2) + b"\x01\x02" + b"\x02\x01",  # lengths 2 + 1, not 4
+    _head(2, 2, 0, 1) + b"\x01" + b"\x80\x80\x80\x80\x10",  # one run of 2**32
+    _head(2, 2, 2, 1) + b"\x01" + b"\x04",  # flags 2
+    _head(2, 2, 1, 1) + b"\x07" + b"\x04",  # a mask whose first value is 7
+    _head(2, 2, 0, 5) + b"\x01" * 10,  # more runs than pixels
+    _head(60000, 60000, 0, 1) + b"\x01" + b"\x80\xa0\xa7\xb4\x0d",  # 3.6e9 pixels
+])
+def test_rle_from_bytes_refuses_malformed_data(data):
+    with pytest.raises(VisionError, match="argument 'data'"):
+        rle_from_bytes(data)
+
+
+def _runs(shape, values, lengths, binary=False):
+    from cell.vision.rle import RunLength
+    return RunLength(shape, binary, np.asarray(values), np.asarray(lengths))
+
+
+@pytest.mark.parametrize("rle", [
+    "runs",
+    _runs((2, 2), np.array([1, 2], np.uint8), [5, -1]),  # a negative length
+    _runs((2, 2), np.array([1], np.uint8), [2, 2]),  # fewer values than lengths
+    _runs((2, 2), np.array([1, 2], np.uint8), [2.5, 1.5]),  # fractional lengths
+    _runs((-2, -2), np.array([1], np.uint8), [4]),  # a negative shape
+    _runs((2, 2), np.array([300, 2], np.int64), [2, 2]),  # a value beyond uint8
+    _runs((2, 2), np.array([0, 2], np.uint8), [2, 2], binary=True),  # a mask's value 2
+    _runs((2, 2), np.array([1, 2], np.uint8), [2, 1]),  # lengths sum to 3
+    _runs((60000, 60000), np.array([1], np.uint8), [60000 * 60000]),  # 3.6e9 pixels
+])
+@pytest.mark.parametrize("function", [rle_decode, rle_to_bytes])
+def test_inconsistent_runs_are_refused(function, rle):
+    with pytest.raises(VisionError, match="argument 'rle'"):
+        function(rle)
+
+
+@pytest.mark.parametrize("quality", [150, -5, np.nan, "90", 1e18, 50.7, True])
+def test_coding_sizes_refuses_a_bad_jpeg_quality(quality):
+    with pytest.raises(VisionError, match="argument 'jpeg_quality': .* 0 to 100"):
+        coding_sizes(_MASK, jpeg_quality=quality)
+
+
+def test_coding_sizes_bounds_the_array():
+    with pytest.raises(VisionError, match="argument 'array': .* 4194304 pixels"):
+        coding_sizes(np.zeros((2049, 2048), bool))

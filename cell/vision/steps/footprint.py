@@ -76,7 +76,37 @@ def _facets6(hull: np.ndarray) -> float:
 
 
 def describe(outline: np.ndarray, holes: tuple[np.ndarray, ...] = ()) -> Footprint:
-    """The :class:`Footprint` of a polygon (N >= 3, 2) with holes, in metres."""
+    """The :class:`Footprint` of a polygon (N >= 3, 2) with holes, in metres.
+
+    ``outline`` (N >= 3, 2) finite numbers enclosing some area (not all on one line);
+    ``holes`` a sequence of such (M >= 3, 2) polygons. Anything else is a ``VisionError``
+    naming the argument."""
+    outline = _polygon("outline", outline)
+    scale = float(np.ptp(outline, axis=0).max())
+    x, y = (outline - outline.mean(axis=0)).T
+    if not abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))) > 1e-12 * scale**2:
+        raise VisionError("describe: argument 'outline' encloses no area (its points lie on "
+                          "one line or at one point)")
+    if isinstance(holes, np.ndarray) or not isinstance(holes, tuple | list):
+        raise VisionError(f"describe: argument 'holes' must be a tuple of (M, 2) polygons, got "
+                          f"{type(holes).__name__}")
+    return _describe(outline, tuple(_polygon("holes", h) for h in holes))
+
+
+def _polygon(name: str, value: object) -> np.ndarray:
+    """A polygon (N >= 3, 2) of finite numbers as float64."""
+    try:
+        p = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        p = np.zeros((0, 0))
+    if p.ndim != 2 or p.shape[0] < 3 or p.shape[1] != 2 or not np.isfinite(p).all():
+        raise VisionError(f"describe: argument '{name}': expected (N >= 3, 2) finite numbers "
+                          f"(metres), got {getattr(value, 'shape', type(value).__name__)}")
+    return p
+
+
+def _describe(outline: np.ndarray, holes: tuple[np.ndarray, ...]) -> Footprint:
+    """:func:`describe` of checked polygons (the detector's per-blob call)."""
     origin = outline[0]
     outer = ((outline - origin) * 1e3).astype(np.float32)
     a_out, sx, sy = _moments(outer)
@@ -187,7 +217,7 @@ class TablePlane:
                 lo, hi = float(np.median(lo)), float(np.median(hi))
             drop = self._o[2] - self.plane_z - np.where(r.away, hi, lo)
             polys.append(self._o[:2] + r.slope * drop[:, None])
-        return describe(polys[0], tuple(polys[1:]))
+        return _describe(polys[0], tuple(polys[1:]))
 
     def area_mm2(self, blob: Outline) -> float:
         """The blob's pixel area scaled to the table plane at the image centre (mm^2)."""

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.catalogue import KINDS, PartKind
+from cell.errors import VisionError
 from cell.vision.steps.footprint import Footprint, TablePlane
 from cell.vision.steps.outlines import Outline
 
@@ -104,7 +105,18 @@ def _z2(fp: Footprint) -> np.ndarray:
 
 
 def score_kinds(fp: Footprint) -> np.ndarray:
-    """The score of ``fp`` against every kind, (kinds,) in the catalogue's order."""
+    """The score of ``fp`` against every kind, (kinds,) in the catalogue's order.
+    ``fp`` a :class:`Footprint` whose descriptors are finite numbers."""
+    if not isinstance(fp, Footprint):
+        raise VisionError(f"score_kinds: argument 'fp' must be a Footprint, got {type(fp).__name__}")
+    try:
+        finite = all(math.isfinite(v) for v in (fp.length, fp.width, fp.hole_fraction,
+                                                 fp.solidity, fp.facets6))
+    except TypeError:
+        finite = False
+    if not finite:
+        raise VisionError("score_kinds: argument 'fp': its length, width, hole_fraction, "
+                          "solidity and facets6 must be finite numbers")
     return _z2(fp).sum(axis=1)
 
 
@@ -134,7 +146,33 @@ def classify_kind(scores: np.ndarray, hole_z2: float = 0.0, *,
                   min_confidence: float = 0.5) -> tuple[str, float]:
     """(kind or ``unknown``, confidence) from the scores (kinds,) and the best kind's
     squared z-score of the hole fraction (see the module docstring); below
-    ``min_confidence`` the kind is ``unknown`` (with its confidence)."""
+    ``min_confidence`` the kind is ``unknown`` (with its confidence).
+
+    ``scores`` (kinds,) finite numbers >= 0, one per catalogue kind; ``hole_z2`` a number
+    >= 0 (inf: no hole fits); ``min_confidence`` in [0, 1]."""
+    try:
+        arr = np.asarray(scores, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (len(KIND_NAMES),) or not (np.isfinite(arr).all() and arr.min() >= 0):
+        raise VisionError(f"classify_kind: argument 'scores': expected {len(KIND_NAMES)} finite "
+                          f"numbers >= 0 (one per kind: {', '.join(KIND_NAMES)}), got "
+                          f"{getattr(scores, 'shape', type(scores).__name__)}")
+    _check_number("classify_kind", "hole_z2", hole_z2, 0.0, math.inf)
+    _check_number("classify_kind", "min_confidence", min_confidence, 0.0, 1.0)
+    return _classify(arr, float(hole_z2), min_confidence=float(min_confidence))
+
+
+def _check_number(where: str, name: str, value: object, lo: float, hi: float) -> None:
+    """A real number (not a bool, not NaN) in [lo, hi], else a VisionError."""
+    if (not isinstance(value, int | float | np.integer | np.floating)
+            or isinstance(value, bool | np.bool_) or not lo <= value <= hi):
+        raise VisionError(f"{where}: argument '{name}': expected a number in [{lo:g}, {hi:g}], "
+                          f"got {value!r}")
+
+
+def _classify(scores: np.ndarray, hole_z2: float, *, min_confidence: float) -> tuple[str, float]:
+    """:func:`classify_kind` of checked arguments (the detector's per-blob call)."""
     best = int(np.argmin(scores))
     s = float(scores[best])
     if s > MAX_FIT or hole_z2 > _MAX_HOLE_Z2:
@@ -160,10 +198,18 @@ def _edge_heights(kind: str, mid: Footprint) -> tuple[np.ndarray | float, np.nda
 
 
 def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -> KindFit:
-    """The :class:`KindFit` of a blob (see the module docstring)."""
+    """The :class:`KindFit` of a blob (see the module docstring): ``blob`` an
+    :class:`~cell.vision.steps.outlines.Outline`, ``plane`` a
+    :class:`~cell.vision.steps.footprint.TablePlane`, ``min_confidence`` in [0, 1]."""
+    if not isinstance(blob, Outline):
+        raise VisionError(f"fit_kind: argument 'blob' must be an Outline, got {type(blob).__name__}")
+    if not isinstance(plane, TablePlane):
+        raise VisionError(f"fit_kind: argument 'plane' must be a TablePlane, got "
+                          f"{type(plane).__name__}")
+    _check_number("fit_kind", "min_confidence", min_confidence, 0.0, 1.0)
     rays = plane.rays_of(blob)
     mid = plane.footprint(rays, (_MID, _MID))
-    scores = score_kinds(mid)
+    scores = _z2(mid).sum(axis=1)
     order = np.argsort(scores)
     if scores[order[0]] > _HOPELESS:
         return KindFit("unknown", 0.0, math.inf, mid)
@@ -177,6 +223,6 @@ def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -
             z2[k] = refined
             scores[k] = z2[k].sum()
     best = int(np.argmin(scores))
-    kind, confidence = classify_kind(scores, float(z2[best, 2]), min_confidence=min_confidence)
+    kind, confidence = _classify(scores, float(z2[best, 2]), min_confidence=min_confidence)
     fp = footprints.get(best, mid) if kind != "unknown" else mid
     return KindFit(kind, confidence, float(scores[best]), fp)

@@ -162,18 +162,31 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
     colour next to it (grey levels), ``belt_rgb`` the belt's reflectance (0..1), the
     white-balance reference, ``noise_sigma`` the frame's sensor noise (grey levels) if known:
     channels near black clip the noise, so the part's own estimate (across its colour) can
-    read low; the larger of the two is used."""
-    if not isinstance(patch, np.ndarray) or patch.ndim != 3 or patch.shape[2] != 3:
-        raise VisionError(f"material_features: argument 'patch' must be (H, W, 3), got "
-                          f"{getattr(patch, 'shape', type(patch).__name__)}")
-    mask = np.asarray(mask, dtype=bool)
-    if mask.shape != patch.shape[:2]:
-        raise VisionError(f"material_features: argument 'mask' must be {patch.shape[:2]}, "
-                          f"got {mask.shape}")
+    read low; the larger of the two is used.
+
+    ``patch`` uint8 (H, W, 3); ``mask`` bool or uint8 (H, W), nonzero inside;
+    ``belt_rgb_seen`` three finite numbers in 0..255; ``belt_rgb`` three numbers in
+    (0, 1]; ``noise_sigma`` a number in 0..255. Anything else is a ``VisionError`` naming
+    the argument. (The detector measures its parts through :func:`part_materials`.)"""
+    if (not isinstance(patch, np.ndarray) or patch.dtype != np.uint8 or patch.ndim != 3
+            or patch.shape[2] != 3):
+        raise VisionError(f"material_features: argument 'patch' must be uint8 (H, W, 3), got "
+                          f"{getattr(patch, 'dtype', type(patch).__name__)} "
+                          f"{getattr(patch, 'shape', '')}")
+    if (not isinstance(mask, np.ndarray) or mask.dtype not in (np.bool_, np.uint8)
+            or mask.shape != patch.shape[:2]):
+        raise VisionError(f"material_features: argument 'mask' must be bool or uint8 "
+                          f"{patch.shape[:2]}, got {getattr(mask, 'dtype', type(mask).__name__)} "
+                          f"{getattr(mask, 'shape', '')}")
+    mask = mask.astype(bool, copy=False)
     if (n := int(np.count_nonzero(mask))) < _MIN_PIXELS:
         raise VisionError(f"material_features: argument 'mask' needs 8 pixels, got {n}")
-    if patch.dtype != np.uint8:
-        patch = np.clip(patch, 0, 255).astype(np.uint8)
+    belt_rgb_seen = _three("belt_rgb_seen", belt_rgb_seen, 0.0, 255.0)
+    belt_rgb = _three("belt_rgb", belt_rgb, 0.0, 1.0)
+    if not belt_rgb.min() > 0:
+        raise VisionError(f"material_features: argument 'belt_rgb' must be above 0 in every "
+                          f"channel (a reflectance in (0, 1]), got {tuple(belt_rgb.tolist())}")
+    noise_sigma = _number("noise_sigma", noise_sigma, 0.0, 255.0)
     row = _statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
     grain, z, vis, _ = _grain(row[None], noise_sigma)[0].tolist()
     mean = row[_MEAN : _MEAN + 3]
@@ -190,13 +203,57 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
     odds: clear grain (``grain >= grain_metal`` with ``grain_z >= grain_z_min``) on a
     surface bright enough to show it counts 50:1 for metal; grain below 0.45 *
     ``grain_metal`` where a metal's grain would be clearly visible (``grain_visibility`` >= 4)
-    counts 1:50 against. Back-lit: ``unknown``, 0."""
+    counts 1:50 against. Back-lit: ``unknown``, 0.
+
+    ``features`` a :class:`MaterialFeatures` with finite values; ``backlit`` a bool;
+    ``grain_metal`` in [0, 1], ``grain_z_min`` in [0, 100], ``albedo_sigma`` in
+    [0.001, 1] (the ranges of :class:`VisionSettings`)."""
+    if not isinstance(features, MaterialFeatures):
+        raise VisionError(f"classify_material: argument 'features' must be MaterialFeatures, "
+                          f"got {type(features).__name__}")
+    if not isinstance(backlit, bool | np.bool_):
+        raise VisionError(f"classify_material: argument 'backlit' must be True or False, "
+                          f"got {backlit!r}")
+    _number("grain_metal", grain_metal, 0.0, 1.0, where="classify_material")
+    _number("grain_z_min", grain_z_min, 0.0, 100.0, where="classify_material")
+    _number("albedo_sigma", albedo_sigma, 0.001, 1.0, where="classify_material")
+    f = features
+    try:
+        albedo = np.asarray(f.albedo, dtype=np.float64)
+        fields = np.array([f.grain, f.grain_z, f.grain_visibility, f.grain_pixels, f.pixels],
+                          dtype=np.float64)
+    except (TypeError, ValueError):
+        albedo = fields = np.array([np.nan])
+    if albedo.shape != (3,) or not (np.isfinite(albedo).all() and np.isfinite(fields).all()):
+        raise VisionError("classify_material: argument 'features' must hold finite numbers "
+                          "(albedo three of them)")
     if backlit:
         return _UNKNOWN
-    f = features
     grain = np.array([[f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1)]])
     return _labels(np.asarray(f.albedo, np.float64)[None], grain, grain_metal=grain_metal,
                    grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
+
+
+def _number(name: str, value: object, lo: float, hi: float, *,
+            where: str = "material_features") -> float:
+    """A real number (not a bool) in [lo, hi], else a VisionError naming ``where``."""
+    if (not isinstance(value, int | float | np.integer | np.floating)
+            or isinstance(value, bool | np.bool_) or not lo <= value <= hi):
+        raise VisionError(f"{where}: argument '{name}': expected a number in [{lo:g}, {hi:g}], "
+                          f"got {value!r}")
+    return float(value)
+
+
+def _three(name: str, value: object, lo: float, hi: float) -> np.ndarray:
+    """Three finite numbers in [lo, hi] (one per channel) as float64 (3,)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.full(1, np.nan)
+    if arr.shape != (3,) or not (np.isfinite(arr).all() and lo <= arr.min() and arr.max() <= hi):
+        raise VisionError(f"material_features: argument '{name}': expected three numbers in "
+                          f"[{lo:g}, {hi:g}] (R, G, B), got {value!r}")
+    return arr
 
 
 def _interior(image: np.ndarray, part: PartPixels) -> tuple[np.ndarray, np.ndarray] | None:

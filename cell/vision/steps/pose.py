@@ -110,8 +110,12 @@ def part_pose(outline: np.ndarray, *, centroid: tuple[float, float], rect_angle:
 def kind_yaw(outline: np.ndarray, *, centroid: tuple[float, float], rect_angle: float, kind: str,
              cut: np.ndarray | None = None) -> float:
     """The yaw (rad, in [0, 2*pi/symmetry), 0 for symmetry 0 or ``"unknown"``) of
-    :func:`part_pose`, alone."""
+    :func:`part_pose`, alone; ``rect_angle`` a finite number (rad)."""
     p, c, on_cut = _checked("kind_yaw", outline, centroid, kind, cut)
+    if (not isinstance(rect_angle, int | float | np.integer | np.floating)
+            or isinstance(rect_angle, bool | np.bool_) or not math.isfinite(rect_angle)):
+        raise VisionError(f"kind_yaw: argument 'rect_angle': expected a finite angle (rad), "
+                          f"got {rect_angle!r}")
     return _yaw(p, c, float(rect_angle), kind, on_cut)
 
 
@@ -128,8 +132,9 @@ def _checked(where: str, outline, centroid, kind: str, cut
     c = np.asarray(centroid, dtype=np.float64)
     if c.shape != (2,) or not np.isfinite(c).all():
         raise VisionError(f"{where}: centroid must be two finite numbers, got {centroid!r}")
-    if kind != "unknown" and kind not in KINDS:
-        raise VisionError(f"{where}: unknown kind {kind!r}; valid: {', '.join(KINDS)}, unknown")
+    if not isinstance(kind, str) or (kind != "unknown" and kind not in KINDS):
+        raise VisionError(f"{where}: argument 'kind': {kind!r} is not a kind (valid: "
+                          f"{', '.join(KINDS)}, unknown)")
     if cut is None:
         return p, c, np.zeros(len(p), bool)
     if not isinstance(cut, np.ndarray) or cut.dtype != bool or cut.shape != (len(p),):

@@ -88,3 +88,22 @@ def test_a_camera_without_rays_at_its_principal_point_is_a_vision_error(R, dist)
     with pytest.raises(VisionError, match=r"^camera model: its rays at the principal point \(.*\) meet "
                        r"the plane z = 0.08 m nan m apart per pixel: it must look at the plane"):
         TablePlane(cam, 0.08)
+
+
+@pytest.mark.parametrize("outline, holes, culprit", [
+    (np.zeros((0, 2)), (), "argument 'outline'"),
+    (np.array([[0, 0], [np.nan, 0], [0, 1.0]]), (), "argument 'outline'"),
+    ("abc", (), "argument 'outline'"),
+    (np.zeros((3, 2)), (), "argument 'outline' encloses no area"),
+    (np.array([[0, 0], [1, 1], [2, 2.0]]), (), "argument 'outline' encloses no area"),
+    (_polygon(6, 0.01), (np.zeros((2, 2)),), "argument 'holes'"),
+    (_polygon(6, 0.01), np.zeros((6, 2)), "argument 'holes' must be a tuple"),
+])
+def test_describe_refuses_what_is_no_polygon(outline, holes, culprit):
+    with pytest.raises(VisionError, match=culprit):
+        describe(outline, holes)
+
+
+def test_describe_of_a_tiny_polygon_is_not_refused():
+    fp = describe(_polygon(6, 1e-7))
+    assert fp.length == pytest.approx(2e-7, rel=1e-3)

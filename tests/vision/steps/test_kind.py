@@ -70,3 +70,37 @@ def test_a_drawn_washer_is_a_washer():
     want = ((u - (drawn.W - 1) / 2) / drawn.PX_PER_MM * 1e-3,
             drawn.BELT_Y - (v - (drawn.H - 1) / 2) / drawn.PX_PER_MM * 1e-3)
     assert fit.footprint.centroid == pytest.approx(want, abs=5e-5)
+
+
+@pytest.mark.parametrize("args, kwargs, culprit", [
+    ((np.array([np.nan] * len(KIND_NAMES)),), {}, "argument 'scores'"),
+    ((np.array([]),), {}, "argument 'scores'"),
+    ((np.arange(3.0),), {}, "argument 'scores'"),
+    (("abc",), {}, "argument 'scores'"),
+    ((-np.ones(len(KIND_NAMES)),), {}, "argument 'scores'"),
+    ((np.arange(float(len(KIND_NAMES))), np.nan), {}, "argument 'hole_z2'"),
+    ((np.arange(float(len(KIND_NAMES))),), {"min_confidence": np.nan}, "argument 'min_confidence'"),
+    ((np.arange(float(len(KIND_NAMES))),), {"min_confidence": 2.0}, "argument 'min_confidence'"),
+])
+def test_classify_kind_refuses_bad_values(args, kwargs, culprit):
+    from cell.errors import VisionError
+    with pytest.raises(VisionError, match=culprit):
+        classify_kind(*args, **kwargs)
+
+
+def test_score_fit_refuse_what_is_not_theirs():
+    import dataclasses
+
+    from cell.errors import VisionError
+    with pytest.raises(VisionError, match="argument 'fp' must be a Footprint"):
+        score_kinds("fp")
+    fp = dataclasses.replace(describe(_circle(0.015)), length=np.nan)
+    with pytest.raises(VisionError, match="argument 'fp'.*finite"):
+        score_kinds(fp)
+    with pytest.raises(VisionError, match="argument 'blob' must be an Outline"):
+        fit_kind("blob", None)
+    blob, plane = _drawn_blob(lambda img: cv2.circle(img, drawn.mm(0, 0), drawn.px(10), (200, 200, 195), -1))
+    with pytest.raises(VisionError, match="argument 'plane' must be a TablePlane"):
+        fit_kind(blob, None)
+    with pytest.raises(VisionError, match="argument 'min_confidence'"):
+        fit_kind(blob, plane, min_confidence=np.nan)

@@ -297,3 +297,49 @@ def test_part_materials_bad_input_names_the_argument():
                        settings=SETTINGS, backlit=False)
     with pytest.raises(VisionError, match="parts"):
         part_materials(img, fg, [(0, 0, parts[0].mask)], settings=SETTINGS, backlit=False)
+
+
+@pytest.mark.parametrize("change, culprit", [
+    ({"patch": lambda p: p.astype(np.float64) / 255}, "argument 'patch' must be uint8"),  # 0..1
+    ({"patch": lambda p: p.astype(np.int64) * 1000}, "argument 'patch' must be uint8"),
+    ({"mask": lambda m: m.astype(np.float64) * 0.5}, "argument 'mask' must be bool or uint8"),
+    ({"belt": lambda b: np.array([np.nan, 80, 110])}, "argument 'belt_rgb_seen'"),
+    ({"belt": lambda b: "abc"}, "argument 'belt_rgb_seen'"),
+    ({"belt": lambda b: np.array([60.0, 80])}, "argument 'belt_rgb_seen'"),
+    ({"belt_rgb": (0, 0, 0)}, "argument 'belt_rgb' must be above 0"),
+    ({"belt_rgb": (1, 2)}, "argument 'belt_rgb'"),
+    ({"belt_rgb": (0.3, np.nan, 0.4)}, "argument 'belt_rgb'"),
+    ({"noise_sigma": np.nan}, "argument 'noise_sigma'"),
+    ({"noise_sigma": -1.0}, "argument 'noise_sigma'"),
+    ({"noise_sigma": "1"}, "argument 'noise_sigma'"),
+])
+def test_material_features_refuses_bad_values(change, culprit):
+    patch, mask, belt = _patch("steel")
+    patch = change.get("patch", lambda p: p)(patch)
+    mask = change.get("mask", lambda m: m)(mask)
+    belt = change.get("belt", lambda b: b)(belt)
+    with pytest.raises(VisionError, match=culprit):
+        material_features(patch, mask, belt, belt_rgb=change.get("belt_rgb", BELT),
+                          noise_sigma=change.get("noise_sigma", 0.0))
+
+
+def test_material_features_takes_a_uint8_mask():
+    patch, mask, belt = _patch("steel")
+    a = material_features(patch, mask, belt, belt_rgb=BELT)
+    b = material_features(patch, mask.astype(np.uint8) * 255, belt, belt_rgb=BELT)
+    assert (a.grain, a.grain_z, a.pixels) == (b.grain, b.grain_z, b.pixels)
+    np.testing.assert_array_equal(a.albedo, b.albedo)
+
+
+@pytest.mark.parametrize("change, culprit", [
+    ({"grain_metal": np.nan}, "argument 'grain_metal'"),  # was 'metal'
+    ({"albedo_sigma": 0}, "argument 'albedo_sigma'"),  # was a NaN confidence
+    ({"grain_z_min": "3"}, "argument 'grain_z_min'"),
+    ({"backlit": "no"}, "argument 'backlit'"),
+    ({"features": "f"}, "argument 'features' must be MaterialFeatures"),
+    ({"features": _features(np.nan, 5.0)}, "argument 'features' must hold finite"),
+])
+def test_classify_material_refuses_bad_values(change, culprit):
+    call = {"features": _features(0.1, 10.0), "backlit": False, **OPTS, **change}
+    with pytest.raises(VisionError, match=culprit):
+        classify_material(call.pop("features"), **call)

@@ -277,7 +277,8 @@ def test_pose_is_frozen_and_plain():
     ({"outline": np.zeros((5, 3))}, "outline"),
     ({"outline": np.full((5, 2), np.nan)}, "outline"),
     ({"centroid": (0.0,)}, "centroid"),
-    ({"kind": "hexnut"}, "kind"),
+    ({"kind": "hexnut"}, "argument 'kind'"),
+    ({"kind": ["nut"]}, "argument 'kind'"),
     ({"cut": 3}, "cut"),
     ({"cut": np.ones(5, bool)}, "cut"),
     ({"cut": np.ones(96)}, "cut"),
@@ -291,3 +292,9 @@ def test_bad_input_names_the_argument(args, culprit):
         part_pose(outline, **call)
     with pytest.raises(VisionError, match=culprit):
         kind_yaw(outline, **call)
+
+
+@pytest.mark.parametrize("angle", [np.nan, np.inf, "0", None, True])
+def test_kind_yaw_refuses_a_rect_angle_that_is_no_finite_number(angle):
+    with pytest.raises(VisionError, match="argument 'rect_angle'"):
+        kind_yaw(_square(), centroid=(0.0, 0.0), rect_angle=angle, kind="l_bracket")

@@ -28,6 +28,7 @@ import numpy as np
 
 from cell.catalogue import KINDS, PartKind
 from cell.errors import VisionError
+from cell.vision._checks import check_range
 from cell.vision.steps.footprint import Footprint, TablePlane
 from cell.vision.steps.outlines import Outline
 
@@ -158,17 +159,9 @@ def classify_kind(scores: np.ndarray, hole_z2: float = 0.0, *,
         raise VisionError(f"classify_kind: argument 'scores': expected {len(KIND_NAMES)} finite "
                           f"numbers >= 0 (one per kind: {', '.join(KIND_NAMES)}), got "
                           f"{getattr(scores, 'shape', type(scores).__name__)}")
-    _check_number("classify_kind", "hole_z2", hole_z2, 0.0, math.inf)
-    _check_number("classify_kind", "min_confidence", min_confidence, 0.0, 1.0)
+    check_range("hole_z2", hole_z2, 0.0, math.inf)
+    check_range("min_confidence", min_confidence, 0.0, 1.0)
     return _classify(arr, float(hole_z2), min_confidence=float(min_confidence))
-
-
-def _check_number(where: str, name: str, value: object, lo: float, hi: float) -> None:
-    """A real number (not a bool, not NaN) in [lo, hi], else a VisionError."""
-    if (not isinstance(value, int | float | np.integer | np.floating)
-            or isinstance(value, bool | np.bool_) or not lo <= value <= hi):
-        raise VisionError(f"{where}: argument '{name}': expected a number in [{lo:g}, {hi:g}], "
-                          f"got {value!r}")
 
 
 def _classify(scores: np.ndarray, hole_z2: float, *, min_confidence: float) -> tuple[str, float]:
@@ -206,7 +199,7 @@ def fit_kind(blob: Outline, plane: TablePlane, *, min_confidence: float = 0.5) -
     if not isinstance(plane, TablePlane):
         raise VisionError(f"fit_kind: argument 'plane' must be a TablePlane, got "
                           f"{type(plane).__name__}")
-    _check_number("fit_kind", "min_confidence", min_confidence, 0.0, 1.0)
+    check_range("min_confidence", min_confidence, 0.0, 1.0)
     rays = plane.rays_of(blob)
     mid = plane.footprint(rays, (_MID, _MID))
     scores = _z2(mid).sum(axis=1)

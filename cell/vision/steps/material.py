@@ -43,6 +43,7 @@ import numpy as np
 
 from cell.catalogue import MATERIALS
 from cell.errors import VisionError
+from cell.vision._checks import check_range
 from cell.vision.settings import VisionSettings
 from cell.vision.steps.foreground import noise_sigma
 
@@ -186,7 +187,7 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
     if not belt_rgb.min() > 0:
         raise VisionError(f"material_features: argument 'belt_rgb' must be above 0 in every "
                           f"channel (a reflectance in (0, 1]), got {tuple(belt_rgb.tolist())}")
-    noise_sigma = _number("noise_sigma", noise_sigma, 0.0, 255.0)
+    noise_sigma = check_range("noise_sigma", noise_sigma, 0.0, 255.0)
     row = _statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
     grain, z, vis, _ = _grain(row[None], noise_sigma)[0].tolist()
     mean = row[_MEAN : _MEAN + 3]
@@ -214,9 +215,9 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
     if not isinstance(backlit, bool | np.bool_):
         raise VisionError(f"classify_material: argument 'backlit' must be True or False, "
                           f"got {backlit!r}")
-    _number("grain_metal", grain_metal, 0.0, 1.0, where="classify_material")
-    _number("grain_z_min", grain_z_min, 0.0, 100.0, where="classify_material")
-    _number("albedo_sigma", albedo_sigma, 0.001, 1.0, where="classify_material")
+    check_range("grain_metal", grain_metal, 0.0, 1.0)
+    check_range("grain_z_min", grain_z_min, 0.0, 100.0)
+    check_range("albedo_sigma", albedo_sigma, 0.001, 1.0)
     f = features
     try:
         albedo = np.asarray(f.albedo, dtype=np.float64)
@@ -232,16 +233,6 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
     grain = np.array([[f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1)]])
     return _labels(np.asarray(f.albedo, np.float64)[None], grain, grain_metal=grain_metal,
                    grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
-
-
-def _number(name: str, value: object, lo: float, hi: float, *,
-            where: str = "material_features") -> float:
-    """A real number (not a bool) in [lo, hi], else a VisionError naming ``where``."""
-    if (not isinstance(value, int | float | np.integer | np.floating)
-            or isinstance(value, bool | np.bool_) or not lo <= value <= hi):
-        raise VisionError(f"{where}: argument '{name}': expected a number in [{lo:g}, {hi:g}], "
-                          f"got {value!r}")
-    return float(value)
 
 
 def _three(name: str, value: object, lo: float, hi: float) -> np.ndarray:

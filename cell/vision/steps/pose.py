@@ -66,6 +66,7 @@ from scipy.optimize import least_squares
 
 from cell.catalogue import KINDS
 from cell.errors import VisionError
+from cell.vision._checks import check_range
 
 __all__ = ["Pose", "kind_yaw", "part_pose"]
 
@@ -112,11 +113,11 @@ def kind_yaw(outline: np.ndarray, *, centroid: tuple[float, float], rect_angle: 
     """The yaw (rad, in [0, 2*pi/symmetry), 0 for symmetry 0 or ``"unknown"``) of
     :func:`part_pose`, alone; ``rect_angle`` a finite number (rad)."""
     p, c, on_cut = _checked("kind_yaw", outline, centroid, kind, cut)
-    if (not isinstance(rect_angle, int | float | np.integer | np.floating)
-            or isinstance(rect_angle, bool | np.bool_) or not math.isfinite(rect_angle)):
+    rect_angle = check_range("rect_angle", rect_angle, -math.inf, math.inf)
+    if not math.isfinite(rect_angle):
         raise VisionError(f"kind_yaw: argument 'rect_angle': expected a finite angle (rad), "
                           f"got {rect_angle!r}")
-    return _yaw(p, c, float(rect_angle), kind, on_cut)
+    return _yaw(p, c, rect_angle, kind, on_cut)
 
 
 def _checked(where: str, outline, centroid, kind: str, cut

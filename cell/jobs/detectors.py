@@ -3,7 +3,8 @@
 A detector is any object with ``detect(image, camera) -> list[Detection]`` (image uint8
 RGB (H, W, 3), camera a :class:`~cell.camera.CameraModel`). A user's class is built with
 the scenario's :class:`~cell.vision.settings.VisionSettings` when its constructor takes
-one argument, else with none. ``examples/threshold_detector.py`` is such a class built
+a positional argument, else with none (keyword-only and ``**kwargs`` parameters are left
+to their defaults). ``examples/threshold_detector.py`` is such a class built
 from the syllabus functions.
 
 A user's detector is called through :class:`CheckedDetector`: whatever its ``detect``
@@ -61,14 +62,20 @@ def load_detector(settings: VisionSettings) -> object:
         raise JobError(f"vision.detector {shown}: class {escape(repr(class_name))} has no "
                        "detect(image, camera) method")
     try:
-        takes_settings = len(inspect.signature(cls).parameters) >= 1
-        detector = cls(settings) if takes_settings else cls()
+        detector = cls(settings) if _takes_positional(cls) else cls()
     except CellError:
         raise
     except Exception as exc:
         raise JobError(f"vision.detector {shown}: building it failed: "
                        f"{escape(type(exc).__name__)}: {escape(str(exc))}") from None
     return CheckedDetector(name, detector)
+
+
+def _takes_positional(cls: type) -> bool:
+    """Whether ``cls(x)`` passes ``x`` to a parameter of its constructor."""
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                  inspect.Parameter.VAR_POSITIONAL)
+    return any(p.kind in positional for p in inspect.signature(cls).parameters.values())
 
 
 @dataclass(frozen=True, eq=False)

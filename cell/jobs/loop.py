@@ -181,9 +181,15 @@ class SortLoop:
     # --- the two modes ----------------------------------------------------------------
     def _wait_for_part(self) -> bool:
         """Index mode: run the belt until a part stops at the barrier (then let it settle);
-        False when none comes within ``sort.arrival_timeout``."""
+        False when none comes within ``sort.arrival_timeout``, or when a part let go has
+        not ridden on past the barrier within it (jammed there: the job ends)."""
         conveyor = self.world.conveyor
+        end = self.world.time + self.settings.arrival_timeout
         while conveyor.release > 0.0:  # a part let go rides on past the barrier first
+            if self.world.time >= end:
+                self._event("a part let go has not left the barrier within "
+                            "sort.arrival_timeout: the job ends", "warning")
+                return False
             self._step(10)
         end = self.world.time + self.settings.arrival_timeout
         while not self.world.barrier_blocked:

@@ -54,7 +54,6 @@ def orb_match(
     ratio: float = 0.75,
     ransac_px: float = 3.0,
     min_inliers: int = 10,
-    seed: int = 0,
 ) -> FeatureMatch | None:
     """Find ``template`` in ``scene`` with ORB features and a RANSAC homography.
 
@@ -68,11 +67,11 @@ def orb_match(
     ransac_px : RANSAC reprojection threshold (pixels), in (0, 1000].
     min_inliers : fewer inliers than this means "not found", 4 to 100_000 (a
         homography takes 4).
-    seed : seeds OpenCV's RNG, which RANSAC draws from, so the result is
-        repeatable; 0 to 2**31 - 1.
 
     Returns a ``FeatureMatch`` or ``None`` when the template is not found (always
-    for a scene under 63 px on a side: ORB finds no keypoint there).
+    for a scene under 63 px on a side: ORB finds no keypoint there). The same images
+    give the same match: OpenCV's RANSAC draws from its own fixed-seed generator (not
+    the one ``cv2.setRNGSeed`` sets).
     """
     template = check_gray("template", template)
     scene = check_gray("scene", scene)
@@ -82,7 +81,6 @@ def orb_match(
     if check_range("ransac_px", ransac_px, 0.0, 1000.0) == 0:
         raise VisionError("argument 'ransac_px': expected a number in (0, 1000], got 0")
     min_inliers = check_int("min_inliers", min_inliers, 4, MAX_FEATURES)
-    seed = check_int("seed", seed, 0, 2**31 - 1)
     if min(scene.shape) < 2 * PATCH + 1:  # and ORB's pyramid fails on a 1-pixel side
         return None
     orb = cv2.ORB_create(nfeatures=n_features)
@@ -100,7 +98,6 @@ def orb_match(
         return None
     src = np.float32([kt[m.queryIdx].pt for m in good]).reshape(-1, 1, 2) - pad
     dst = np.float32([ks[m.trainIdx].pt for m in good]).reshape(-1, 1, 2)
-    cv2.setRNGSeed(seed)
     H, inl = cv2.findHomography(src, dst, cv2.RANSAC, float(ransac_px))
     if H is None or inl is None or int(inl.sum()) < min_inliers:
         return None

@@ -72,3 +72,28 @@ def test_valid_detections_come_back_with_plain_numbers(fake):
     (det,) = fake(_returning((numpy_typed,))).detect(IMAGE, None)
     assert det == dataclasses.replace(GOOD, material_confidence=0.5)
     assert type(det.id) is int and type(det.material_confidence) is float
+
+
+class _Keywords:
+    def __init__(self, *, level=7, **options):
+        self.level, self.options = level, options
+
+    def detect(self, image, camera):
+        return []
+
+
+class _Settings:
+    def __init__(self, settings, extra=1):
+        self.settings = settings
+
+    def detect(self, image, camera):
+        return []
+
+
+def test_a_constructor_with_keyword_parameters_only_is_called_with_none(fake):
+    built = fake(_Keywords).detector
+    assert (built.level, built.options) == (7, {})
+
+
+def test_a_constructor_with_a_positional_parameter_gets_the_settings(fake):
+    assert isinstance(fake(_Settings).detector.settings, VisionSettings)

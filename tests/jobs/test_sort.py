@@ -84,6 +84,21 @@ def test_a_part_the_robot_cannot_pick_is_let_go_and_missed(calibration):
     assert report["parts"][0]["outcome"] == "missed"
 
 
+def test_a_part_let_go_that_never_leaves_the_barrier_ends_the_job(calibration, monkeypatch):
+    # a jam: the released part never clears the barrier (the release never runs out); the
+    # job must end after sort.arrival_timeout, not wait for ever
+    from cell.sim.conveyor import Conveyor
+
+    monkeypatch.setattr(Conveyor, "release_part",
+                        lambda self, distance=0.03: setattr(self, "release", float("inf")))
+    report = _run("sort", calibration, "parts.count=2", "faults.suction_fail=[1, 2]",
+                  "sort.attempts=2", "sort.arrival_timeout=15")
+    _check_accounting(report, 2)
+    assert [p["result"] for p in report["picks"]] == ["grasp_failed", "grasp_failed", "placed"]
+    assert [p["outcome"] for p in report["parts"]] == ["missed", "binned_correct"]
+    assert report["metrics"]["sim_time_s"] < 60
+
+
 def test_low_confidence_goes_to_the_reject_bin(calibration):
     report = _run("sort", calibration, "parts.count=2", "sort.min_material_confidence=1.0")
     _check_accounting(report, 2)

@@ -19,11 +19,21 @@ from cell.sweep.plan import plan_sweep
 from cell.sweep.runner import SweepOptions, run_plan
 from cell.sweep.spec import load_sweep
 from cell.sweep.worker import Chunk, Outcome, Task, run_tasks
+from tests.sweep import slow_detector
 from tests.sweep.helpers import ROOT, TINY, rows_without_timings, write_tiny
 
-# (Ctrl-C, a killed worker: long enough that it cannot finish before the test, even starved
-# of the CPU by other work on a busy machine, sees its first rows and interrupts it)
-LONG = TINY.replace("seeds = [1, 2]", "seeds = {from = 1, to = 64}")  # 384 runs
+# (Ctrl-C, a killed worker: 384 runs whose detector sleeps 0.25 s a frame until the test
+# has seen the first rows and interrupted the sweep, so that the sweep cannot finish first,
+# however starved of the CPU on a busy machine the test is: at least 48 s of sleep)
+LONG = TINY.replace("seeds = [1, 2]", "seeds = {from = 1, to = 64}").replace(
+    '"parts.count" = 2', f'"parts.count" = 2\n"vision.detector" = "{slow_detector.NAME}"')
+
+
+def _slow_until_removed(tmp_path: Path) -> tuple[dict[str, str], Path]:
+    """The environment that slows the sweep's detector, and the file to remove to stop it."""
+    gate = tmp_path / "slow"
+    gate.touch()
+    return {slow_detector.SLOW_WHILE: str(gate)}, gate
 
 
 def test_the_local_pool_and_ray_give_the_same_rows(tmp_path, monkeypatch):
@@ -39,10 +49,17 @@ def test_the_local_pool_and_ray_give_the_same_rows(tmp_path, monkeypatch):
     assert (ray / "summary.md").exists() and (ray / "metrics.png").exists()
 
 
-def _cell(*args: str, **kw) -> subprocess.Popen:
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+def _cell(*args: str, env: dict[str, str] | None = None, **kw) -> subprocess.Popen:
+    """``cell ARGS`` as a user starts it from a terminal: Ctrl-C (SIGINT) at its default,
+    even where the tests themselves run with it ignored (a shell script's ``&`` job)."""
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), **(env or {})}
     return subprocess.Popen([sys.executable, "-m", "cell.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env, **kw)
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env,
+                            preexec_fn=_sigint_default, **kw)
+
+
+def _sigint_default() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _rows(path: Path) -> list[str]:
@@ -62,18 +79,20 @@ def _wait_rows(path: Path, n: int, proc: subprocess.Popen, timeout: float = 120.
 def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
     sweep, out = write_tiny(tmp_path, LONG), tmp_path / "out"
     plan = plan_sweep(load_sweep(sweep))
-    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2")
+    slow, gate = _slow_until_removed(tmp_path)
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", env=slow)
     _wait_rows(out / "results.csv", 2, proc)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
     done = _rows(out / "results.csv")
     assert proc.returncode == 130, stderr
-    assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
-    assert f"{len(done)} of {len(plan.runs)} runs" in stderr and "--resume" in stderr
+    assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1, stderr
+    assert f"{len(done)} of {len(plan.runs)} runs" in stderr and "--resume" in stderr, stderr
     assert 0 < len(done) < len(plan.runs) and len(set(done)) == len(done)
     todo = next(r for r in plan.runs if r.run_id not in done)
     with open(out / "results.csv", "ab") as f:  # as if the machine died mid-row
         f.write(f"{todo.run_id},detect,{todo.scenario.seed},fr".encode())
+    gate.unlink()
     proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", "--resume")
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
@@ -112,11 +131,13 @@ def _worker_pids(pid: int) -> list[int]:
 def test_a_killed_worker_loses_nothing(tmp_path):
     sweep, out = write_tiny(tmp_path, LONG), tmp_path / "out"
     plan = plan_sweep(load_sweep(sweep))
-    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2")
+    slow, gate = _slow_until_removed(tmp_path)
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", env=slow)
     _wait_rows(out / "results.csv", 2, proc)
     workers = _worker_pids(proc.pid)
     assert workers, "no worker process found"
     os.kill(workers[0], signal.SIGKILL)
+    gate.unlink()
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
     assert "a worker process died" in stderr and "Traceback" not in stderr, (stdout, stderr)

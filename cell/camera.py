@@ -105,8 +105,12 @@ class CameraModel:
         }
 
     def save(self, path: str | Path) -> None:
-        """Write the model as ``camera.json``."""
-        Path(path).write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
+        """Write the model as ``camera.json``, whole or not at all (``CalibrationError``
+        naming the path when it cannot be written)."""
+        from cell.files import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n",
+                          kind="camera file", error=CalibrationError)
 
     @classmethod
     def from_dict(cls, data: object, *, where: str = "camera model") -> CameraModel:

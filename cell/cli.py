@@ -25,7 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "detect": ("cell.vision.cli", "run the part detector on an image with its camera.json"),
     "calibrate": ("cell.calib.cli", "calibrate the wrist and overhead cameras from robot poses"),
     "sweep": ("cell.sweep.cli", "run a parameter sweep (local pool or Ray): results.csv, plots, summary"),
-    "bench": ("cell.benchmarks", "benchmarks: render, vision, pick, calib"),
+    "bench": ("cell.benchmarks", "benchmarks: render, vision, pick, calib, sort, sweep"),
 }
 
 

@@ -43,11 +43,17 @@ class GraspError(MotionError):
         self.lost = lost
 
 
+class BenchError(CellError):
+    """A benchmark cannot run as asked (a count out of range, an unknown preset), or its
+    runs failed."""
+
+
 class JobError(CellError):
     """A job cannot run as asked (a detector that does not load, an unusable output path)."""
 
 
 __all__ = [
+    "BenchError",
     "CalibrationError",
     "CellError",
     "GraspError",

@@ -37,8 +37,8 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], 
     except OSError as exc:
         raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
     try:
-        os.chmod(tmp, file_mode())  # as open() would make it, not mkstemp's 0600
         with os.fdopen(fd, "wb") as f:
+            os.chmod(tmp, file_mode())  # as open() would make it, not mkstemp's 0600
             f.write(data)
             f.flush()
             os.fsync(f.fileno())

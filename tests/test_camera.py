@@ -194,6 +194,16 @@ def test_a_valid_file_round_trips(tmp_path):
     assert CameraModel.from_dict(del_dist).dist.tolist() == [0.0] * 5
 
 
+
+def test_save_is_whole_or_absent_and_names_the_path(tmp_path):
+    cam = CameraModel.from_dict(_valid())
+    (tmp_path / "taken").mkdir()
+    with pytest.raises(CalibrationError, match="camera file .*taken"):
+        cam.save(tmp_path / "taken")  # a folder: os.replace fails, no file left behind
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken"]
+    assert list((tmp_path / "taken").iterdir()) == []
+
+
 FILES = [
     ("null", b"null", r"expected a JSON object with keys width, height, K, T_world_camera .*got null"),
     ("a number", b"42", r"expected a JSON object .*got a number 42"),

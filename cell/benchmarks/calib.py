@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from cell.benchmarks import fmt, int_in
-from cell.errors import CellError
+from cell.errors import BenchError, CellError
 from cell.options import Parser
 
 __all__ = ["AIM", "REQUIRED", "SEED_BASE", "SETUPS", "main", "parser", "run"]
@@ -100,9 +100,9 @@ def run(*, seeds: int = 10, seed_base: int = SEED_BASE, poses: int = 20, setups:
 
     names = list(SETUPS) if setups is None else [s for s in SETUPS if s in setups]
     if not names or (setups is not None and len(names) != len(set(setups))):
-        raise ValueError(f"setups: give one or more of {', '.join(SETUPS)}, got {setups}")
+        raise BenchError(f"setups: give one or more of {', '.join(SETUPS)}, got {setups}")
     if not 1 <= seeds <= _MAX_SEEDS:
-        raise ValueError(f"seeds: must be 1 to {_MAX_SEEDS}, got {seeds}")
+        raise BenchError(f"seeds: must be 1 to {_MAX_SEEDS}, got {seeds}")
     t0 = time.perf_counter()
     out: dict = {"seeds": seeds, "seed_base": seed_base, "poses": poses, "camera": camera,
                  "overrides": list(overrides),

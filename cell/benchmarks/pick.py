@@ -30,7 +30,7 @@ import numpy as np
 
 from cell.benchmarks import float_in, fmt, int_in
 from cell.catalogue import KINDS
-from cell.errors import CellError
+from cell.errors import BenchError, CellError
 from cell.options import Parser
 from cell.scenario import scenario_from_dict
 
@@ -54,11 +54,11 @@ def run_kind(kind: str, poses: int, seed: int, *, noise_mm: float = 0.0,
     from cell.sim.arm import EFFORT, JOINT_NAMES
 
     if kind not in KINDS:
-        raise ValueError(f"kind: unknown {kind!r}; valid: {', '.join(KINDS)}")
+        raise BenchError(f"kind: unknown {kind!r}; valid: {', '.join(KINDS)}")
     if not 1 <= poses <= MAX_POSES:
-        raise ValueError(f"poses: must be 1 to {MAX_POSES}, got {poses}")
+        raise BenchError(f"poses: must be 1 to {MAX_POSES}, got {poses}")
     if not (np.isfinite(noise_mm) and np.isfinite(noise_deg) and noise_mm >= 0 and noise_deg >= 0):
-        raise ValueError(f"noise: must be finite and >= 0, got {noise_mm} mm, {noise_deg} deg")
+        raise BenchError(f"noise: must be finite and >= 0, got {noise_mm} mm, {noise_deg} deg")
 
     scenario = scenario_from_dict({
         "seed": seed, "parts": {"count": poses + 1, "kinds": [kind]},

@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 from cell.benchmarks import fmt, int_in
+from cell.errors import BenchError
 from cell.options import Parser
 from cell.scenario import scenario_from_dict
 
@@ -131,9 +132,9 @@ def run(*, repeats: int = 30, steps: int = 5000, width: int = 640, height: int =
     from cell.sim.world import World
 
     if not 1 <= repeats <= MAX_REPEATS:
-        raise ValueError(f"repeats: must be 1 to {MAX_REPEATS}, got {repeats}")
+        raise BenchError(f"repeats: must be 1 to {MAX_REPEATS}, got {repeats}")
     if steps < 1:
-        raise ValueError(f"steps: must be at least 1, got {steps}")
+        raise BenchError(f"steps: must be at least 1, got {steps}")
     scenario = scenario_from_dict({"seed": 0, "parts": {"count": 10},
                                    "camera": {"width": width, "height": height}})
     world = World.build(scenario, arm=True)

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 from cell.benchmarks import fmt, int_in
+from cell.errors import BenchError
 from cell.options import Parser
 
 __all__ = ["GRID", "main", "parser", "run"]
@@ -88,7 +89,7 @@ def _one(plan, kind: str, workers: int, out: Path) -> dict:
     finally:
         backend.close()
     if result.ran != len(plan.runs) or result.failed:
-        raise RuntimeError(f"{kind} x{workers}: {result.ran} runs, {result.failed} failed")
+        raise BenchError(f"{kind} x{workers}: {result.ran} runs, {result.failed} failed")
     return {"startup_s": ready - t0, "sweep_s": end - ready, "total_s": end - t0}
 
 

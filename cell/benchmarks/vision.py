@@ -32,6 +32,7 @@ import numpy as np
 
 from cell.benchmarks import fmt, int_in
 from cell.catalogue import KINDS, LIGHTING_PRESETS
+from cell.errors import BenchError
 from cell.options import Parser
 from cell.scenario import scenario_from_dict
 from cell.vision.detector import PartDetector, StepTimes
@@ -214,12 +215,12 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
     not those of a full run (equally valid scenes, but the figures differ a little).
     """
     if not 1 <= parts <= 20:
-        raise ValueError(f"parts: must be 1 to 20, got {parts}")
+        raise BenchError(f"parts: must be 1 to 20, got {parts}")
     if not 1 <= scenes <= MAX_SCENES:
-        raise ValueError(f"scenes: must be 1 to {MAX_SCENES}, got {scenes}")
+        raise BenchError(f"scenes: must be 1 to {MAX_SCENES}, got {scenes}")
     unknown = [p for p in presets or () if p not in LIGHTING_PRESETS]
     if unknown or presets == []:
-        raise ValueError(f"presets: unknown {unknown or 'none given'}; valid: "
+        raise BenchError(f"presets: unknown {unknown or 'none given'}; valid: "
                          f"{', '.join(LIGHTING_PRESETS)}")
     from cell.sim import World, layout
 

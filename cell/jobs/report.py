@@ -15,6 +15,7 @@ import numpy as np
 
 from cell.benchmarks import fmt
 from cell.config import escape
+from cell.errors import JobError
 from cell.jobs.score import OUTCOMES
 from cell.sim.layout import BELT_TOP
 
@@ -85,5 +86,5 @@ def encode_png(image: np.ndarray) -> bytes:
     """PNG bytes of a uint8 RGB (H, W, 3) image."""
     ok, buf = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
     if not ok:
-        raise ValueError("PNG encoding failed")
+        raise JobError("detections.png: OpenCV could not encode the image as PNG")
     return buf.tobytes()

@@ -131,6 +131,19 @@ def _outputs(args: argparse.Namespace) -> _Outputs:
     return outputs
 
 
+def _check_camera(calibration: object, scenario: Scenario, where: str) -> None:
+    """The calibration's overhead camera fits the scenario (its image size, and looking
+    down on the plane ``vision.plane_z``); a ``JobError`` naming ``where`` otherwise."""
+    from cell.errors import VisionError
+    from cell.jobs.sort import overhead_model
+    from cell.vision.steps.footprint import TablePlane
+
+    try:
+        TablePlane(overhead_model(calibration, scenario, where=where), scenario.vision.plane_z)
+    except VisionError as exc:
+        raise JobError(f"{where}: {exc}") from None
+
+
 def main(argv: list[str]) -> int:
     """Run ``cell run`` with ``argv``; 0 on success (a ``CellError`` goes to the caller)."""
     args = _parser().parse_args(argv)
@@ -141,6 +154,7 @@ def main(argv: list[str]) -> int:
         from cell.calib.calfile import load_calibration
 
         calibration = load_calibration(args.calibration)  # checked before the long work
+        _check_camera(calibration, scenario, f"--calibration {printable(repr(args.calibration))}")
     from cell.jobs.sort import run_sort
 
     progress = _progress(sys.stderr, "sort", "parts")

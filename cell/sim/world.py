@@ -416,8 +416,11 @@ class World:
         return Frame(rgb=rgb, depth=d, seg=s, camera=self.camera_model(camera))
 
     def save_xml(self, path: str | Path) -> None:
-        """Write the compiled model as MJCF for inspection."""
-        Path(path).write_text(self.spec.to_xml())
+        """Write the compiled model as MJCF for inspection, whole or not at all
+        (``SimError`` naming the path when it cannot be written)."""
+        from cell.files import atomic_write_text
+
+        atomic_write_text(path, self.spec.to_xml(), kind="model XML", error=SimError)
 
     def close(self) -> None:
         """Free the renderers' GL contexts."""

@@ -74,8 +74,8 @@ class VisionSettings:
     )
     edge_level: float = setting(
         0.3, lo=0.05, hi=0.95,
-        doc="each blob is re-thresholded at this fraction of its median contrast (0.5: the "
-        "outline where an edge pixel is half covered)",
+        doc="each blob is re-thresholded at this fraction of its contrast's lower quartile "
+        "(0.5: the outline where an edge pixel is half covered)",
     )
     shadow_chroma: float = setting(
         0.25, lo=0.0, hi=1.0,

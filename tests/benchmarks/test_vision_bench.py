@@ -53,7 +53,9 @@ def test_a_subset_of_presets(capsys):
 
     report = run(scenes=1, presets=["dim", "front"])
     assert list(report["presets"]) == ["front", "dim"]  # (the catalogue's order)
-    with pytest.raises(ValueError, match="valid: front, back"):
+    from cell.errors import BenchError
+
+    with pytest.raises(BenchError, match="valid: front, back"):
         run(scenes=1, presets=["bright"])
     with pytest.raises(SystemExit):
         main(["--presets", "dim,bright"])

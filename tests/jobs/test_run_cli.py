@@ -108,6 +108,16 @@ def test_a_calibration_without_the_overhead_camera_is_refused(demo, tmp_path):
     wrist_only.write_text(json.dumps(data))
     r = _cell("run", "scenarios/sort.toml", "--calibration", str(wrist_only))
     assert r.returncode == 2 and "holds no overhead camera" in r.stderr, r.stderr
+    assert "wrist.json" in r.stderr and len(r.stderr.splitlines()) == 1  # the file is named
+
+
+def test_a_plane_the_calibrated_camera_does_not_look_down_on_is_refused_first(demo, tmp_path):
+    out, _ = demo
+    r = _cell("run", "scenarios/sort.toml", "--calibration", str(out / "report.calibration.json"),
+              "--set", "vision.plane_z=5", "--report", str(tmp_path / "r.json"))
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, r.stderr
+    assert "--calibration" in r.stderr and "vision.plane_z" in r.stderr
+    assert list(tmp_path.iterdir()) == []  # refused before the run: nothing written
 
 
 def test_outputs_get_the_usual_file_mode(demo):

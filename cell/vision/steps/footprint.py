@@ -163,7 +163,7 @@ class TablePlane:
         if not (self._o[2] > plane_z and self._R[2, 2] < 0):
             raise VisionError(f"camera model: at z = {self._o[2]:g} m with its optical axis's z "
                               f"{self._R[2, 2]:+.3g}: it must be above the plane z = {plane_z:g} m "
-                              "and look down on it (axis z below 0)")
+                              "(vision.plane_z) and look down on it (axis z below 0)")
         nadir = camera.K @ (self._R.T @ np.array([0.0, 0.0, -1.0]))
         self._nadir = nadir[:2] / nadir[2] if nadir[2] > 1e-9 else None
         centre = np.array([[camera.K[0, 2], camera.K[1, 2]], [camera.K[0, 2] + 1, camera.K[1, 2]]])

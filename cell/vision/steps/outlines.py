@@ -2,8 +2,8 @@
 
 The foreground's outer contours (``cv2.findContours``) give the blobs. With the belt
 segmentation each blob is then re-thresholded in its own box at a fraction
-(``edge_level``) of its own median contrast, so a bright part's outline does not swell
-by the blur around it and a faint one's does not shrink; pixels that are the belt in
+(``edge_level``) of its own contrast's lower quartile, so a bright part's outline does
+not swell by the blur around it and a faint one's does not shrink; pixels that are the belt in
 shadow (darker in every channel by one factor: Cucchiara et al., *Detecting moving
 objects, ghosts and shadows in video streams*, IEEE PAMI 2003) are dropped. A blob much
 longer than any part holds a rail or the table's edge: its long straight runs are taken
@@ -137,8 +137,8 @@ def shadow(image: np.ndarray, belt: np.ndarray, *, chroma: float, noise: float =
 def _refined(region: np.ndarray, x0: int, y0: int, fg: Foreground, settings: VisionSettings
              ) -> np.ndarray:
     """The pixels of ``region`` (uint8, a blob's near surroundings at full scale, top-left
-    corner at (x0, y0)) that differ from the belt by ``edge_level`` of the blob's median
-    contrast, less shadows (see the module docstring)."""
+    corner at (x0, y0)) that differ from the belt by ``edge_level`` of the lower quartile
+    of the blob's contrast, less shadows (see the module docstring)."""
     y1, x1 = y0 + region.shape[0], x0 + region.shape[1]
     diff = fg.difference[y0:y1, x0:x1]
     inside = (region > 0) & (fg.mask[y0:y1, x0:x1] > 0)

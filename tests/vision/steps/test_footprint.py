@@ -71,7 +71,7 @@ def test_a_camera_that_does_not_look_down_on_the_plane_is_a_vision_error(R, z):
     T = cam.T_world_camera.copy()
     T[:3, :3], T[2, 3] = R, z
     with pytest.raises(VisionError, match=r"^camera model: at z = .* m with its optical axis's z "
-                       r".*: it must be above the plane z = 0.08 m and look down on it"):
+                       r".*: it must be above the plane z = 0.08 m \(vision.plane_z\) and look down "):
         TablePlane(CameraModel(cam.width, cam.height, cam.K, cam.dist, T), 0.08)
 
 

@@ -45,6 +45,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
+from cell.config import escape
 from cell.errors import JobError
 from cell.files import file_mode
 
@@ -52,7 +53,7 @@ if TYPE_CHECKING:
     from cell.camera import CameraModel
     from cell.sim import World
 
-__all__ = ["TIMELINE", "Replay", "recording_id"]
+__all__ = ["TIMELINE", "Replay", "recording_id", "rerun_disabled"]
 
 TIMELINE = "sim_time"
 _COLLISION_GROUP = 3  # cell.sim.parts.COLLISION_GROUP
@@ -85,10 +86,14 @@ class Replay:
             raise JobError(f"replay {str(self.path)!r}: jpeg_quality must be in 1..100, got {jpeg_quality}")
         self._quality = int(jpeg_quality)
         self._plane_z = float(world.scenario.vision.plane_z if plane_z is None else plane_z)
+        if rerun_disabled():  # (checked first: a disabled stream warns when it is dropped)
+            raise JobError(f"replay {str(self.path)!r}: rerun logging is disabled (RERUN="
+                           f"{escape(os.environ['RERUN'])} in the environment): unset it to write "
+                           "a replay")
         self._rec = rr.RecordingStream("cell", recording_id=recording_id(world))
         if not self._rec.is_enabled():
-            raise JobError(f"replay {str(self.path)!r}: rerun logging is disabled (RERUN=off in the "
-                           "environment): unset it to write a replay")
+            raise JobError(f"replay {str(self.path)!r}: rerun logging is disabled: "
+                           "check the RERUN environment variable")
         self._tmp = _temporary_beside(self.path)
         self._finalizer = weakref.finalize(self, _discard, self._rec, self._tmp)
         self._moving = _moving_bodies(world.model)
@@ -245,6 +250,12 @@ class Replay:
         labels = [rr.ClassDescription(info=rr.AnnotationInfo(0, "background", (0, 0, 0, 0)))]
         labels += [rr.ClassDescription(info=(p.id, f"part_{p.id} {p.kind} {p.finish}")) for p in world.parts]
         self._rec.log("truth", rr.AnnotationContext(labels), static=True)
+
+
+def rerun_disabled() -> bool:
+    """Whether the environment turns rerun's logging off: ``RERUN`` = ``0``, ``no``,
+    ``off`` or ``false`` (any case), the values the rerun SDK reads as off."""
+    return os.environ.get("RERUN", "").strip().lower() in ("0", "no", "off", "false")
 
 
 def recording_id(world: World) -> str:

@@ -177,7 +177,7 @@ def _run_overhead(scenario: object, *, progress: Progress | None, touch: bool) -
         touched = None
         if touch:
             ids = _place_touch_parts(world, rng)
-            touched = touch_parts(rig, result.camera, vision=scenario.vision,
+            touched = touch_parts(rig, result.camera, vision=scenario.vision, parts=len(ids),
                                   true_points=_part_truth(world, ids))
         return result, score_camera(result, truth, touched)
     finally:

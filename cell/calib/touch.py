@@ -165,15 +165,16 @@ class PartTouchResult(_Touched):
         return 1000.0 * np.linalg.norm(self.targets[:, :2] - self.truth[:, :2], axis=1)
 
 
-def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, true_points: np.ndarray,
-                yaw: float = 0.0) -> PartTouchResult:
+def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, parts: int,
+                true_points: np.ndarray, yaw: float = 0.0) -> PartTouchResult:
     """Touch the parts on the belt that the fixed ``camera`` (``T_base_camera``) sees, each
     found by ``PartDetector(vision)`` in one image through the calibrated model (see the
     module docstring); the arm must be out of the camera's view.
 
-    ``true_points`` (K, 3) are the true touch points, ``PART_STANDOFF`` above each part's top
-    centre, base frame (m; ground truth, for scoring only): each detection is scored against
-    the nearest. The K detections of a known kind whose position lies on the belt, more than
+    ``parts`` is how many parts the test put on the belt; ``true_points`` (K, 3) are their
+    true touch points, ``PART_STANDOFF`` above each part's top centre, base frame (m; ground
+    truth, for scoring only): each detection is scored against the nearest. The ``parts``
+    detections of a known kind whose position lies on the belt, more than
     10 mm inside its edges (the cell's drawings: the detector sometimes takes a piece of the
     belt's edge for a part), the most confident first, are touched, tool heading ``yaw``
     (rad). Raises
@@ -193,7 +194,7 @@ def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, true_poi
     if not found:
         raise CalibrationError(f"touch test: camera {camera.name!r} found no whole part of a known kind "
                                "on the belt")
-    found = sorted(found, key=lambda d: -d.kind_confidence)[: len(truth_all)]
+    found = sorted(found, key=lambda d: -d.kind_confidence)[:parts]
     targets = np.array([[d.position[0], d.position[1], BELT_TOP + KINDS[d.kind].height + PART_STANDOFF]
                         for d in found])
     try:

@@ -58,13 +58,17 @@ class SortLoop:
         if detector is None:
             detector = load_detector(scenario.vision)  # (a bad name fails before the cell is built)
         self.world = World.build(scenario)
-        t0 = time.perf_counter()
-        self.replay = replay(self.world) if replay else None  # (logs the cell's geometry)
-        self.timers["replay"] += time.perf_counter() - t0
-        self.skill = PickPlace(self.world.model, self.world.data, self._step, scenario.robot)
-        self.timers["setup"] = time.perf_counter() - t_setup - self.timers["replay"]
-        self.eye = Eye(self.world, camera, detector, scenario,
-                       truth=self.replay is not None, timers=self.timers)
+        try:
+            t0 = time.perf_counter()
+            self.replay = replay(self.world) if replay else None  # (logs the cell's geometry)
+            self.timers["replay"] += time.perf_counter() - t0
+            self.skill = PickPlace(self.world.model, self.world.data, self._step, scenario.robot)
+            self.timers["setup"] = time.perf_counter() - t_setup - self.timers["replay"]
+            self.eye = Eye(self.world, camera, detector, scenario,
+                           truth=self.replay is not None, timers=self.timers)
+        except BaseException:
+            self.world.close()  # (its renderers' GL contexts)
+            raise
         self.keeper = Scorekeeper(self.world)
         self.records: list[PickRecord] = []
         self.attempts = Attempts(self.settings.attempts)

@@ -6,6 +6,8 @@ so the compiled model still exports to XML and its corners are exact.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
@@ -48,22 +50,36 @@ def add_bins(spec: mujoco.MjSpec) -> None:
             body.add_geom(name=f"bin_{name}_wall{i}", type=_BOX, size=size, pos=pos, rgba=rgba)
 
 
-def add_checkerboard(
-    body, name: str, inner_corners: tuple[int, int], square: float, *,
-    thickness: float = _BOARD_THICKNESS, lift: float = _SQUARE_LIFT, back: float = 0.0,
-    contype: int = 1, conaffinity: int = 1, white=None, black=None,
-) -> None:
+@dataclass(frozen=True)
+class BoardBuild:
+    """How :func:`add_checkerboard` builds a board: its ``thickness`` (m), the black
+    squares' ``lift`` above the white face (m; no z-fighting), the z of its back face in the
+    body's frame (``back``, m), the board's collision bits (``contype``, ``conaffinity``),
+    and the ``white`` and ``black`` material names (None: plain white and black ``rgba``)."""
+
+    thickness: float = _BOARD_THICKNESS
+    lift: float = _SQUARE_LIFT
+    back: float = 0.0
+    contype: int = 1
+    conaffinity: int = 1
+    white: str | None = None
+    black: str | None = None
+
+
+def add_checkerboard(body, name: str, inner_corners: tuple[int, int], square: float, *,
+                     build: BoardBuild = BoardBuild()) -> None:
     """A checkerboard in ``body``'s frame: a white board (geom ``<name>_board``) in the
     xy plane facing +z, with black squares (``<name>_sq_<i>_<j>``, drawn only) on it.
 
     ``inner_corners`` (nx, ny) inner corners means (nx + 1) x (ny + 1) squares of
     ``square`` metres, centred on the body's z axis, inside a white margin one square
-    wide. The board's back face is at z = ``back``, its white face at ``back +
-    thickness``, the black squares' tops ``lift`` above that (no z-fighting). ``white``
-    and ``black`` are material names (else plain white and black ``rgba``).
+    wide. The board's back face is at z = ``build.back``, its white face ``build.thickness``
+    above, the black squares' tops ``build.lift`` above that (see :class:`BoardBuild`).
     """
     nx, ny = inner_corners
     s = square
+    thickness, lift, back = build.thickness, build.lift, build.back
+    contype, conaffinity, white, black = build.contype, build.conaffinity, build.white, build.black
     board = body.add_geom(name=f"{name}_board", type=_BOX,
                           size=[(nx + 3) * s / 2, (ny + 3) * s / 2, thickness / 2],
                           pos=[0, 0, back + thickness / 2], contype=contype,

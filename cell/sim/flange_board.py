@@ -42,7 +42,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from cell.sim.fixtures import add_checkerboard, checkerboard_corners
+from cell.sim.fixtures import BoardBuild, add_checkerboard, checkerboard_corners
 
 __all__ = [
     "BODY",
@@ -125,9 +125,9 @@ def add_flange_board(spec: mujoco.MjSpec, tool, *, contype: int, conaffinity: in
     body.gravcomp = 1.0
     white = _matte(spec, "flange_board_white", 0.95)
     black = _matte(spec, "flange_board_black", 0.03)
-    add_checkerboard(body, "flange_board", INNER_CORNERS, SQUARE, thickness=THICKNESS,
-                     lift=LIFT, back=back, contype=contype, conaffinity=conaffinity,
-                     white=white, black=black)
+    add_checkerboard(body, "flange_board", INNER_CORNERS, SQUARE,
+                     build=BoardBuild(thickness=THICKNESS, lift=LIFT, back=back, contype=contype,
+                                      conaffinity=conaffinity, white=white, black=black))
     # The bracket: from the tool housing (radius 0.03 about the tool axis) to the plate's
     # back, along the housing. In the face frame the tool axis is at z = -(FACE_OFFSET +
     # LIFT / 2) and runs along y. (The pattern is symmetric under x -> -x: 9 squares a row.)

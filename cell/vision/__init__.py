@@ -24,6 +24,7 @@ _WHERE = {
     "score_kinds": "steps.kind",
     "kind_yaw": "steps.pose",
     "MaterialFeatures": "steps.material",
+    "MaterialLabel": "steps.material",
     "classify_material": "steps.material",
     "material_features": "steps.material",
     # syllabus techniques

@@ -34,7 +34,7 @@ from cell.vision.settings import VisionSettings
 from cell.vision.steps.footprint import TablePlane
 from cell.vision.steps.foreground import Foreground, find_foreground
 from cell.vision.steps.kind import KindFit, fit_kind, holds_another
-from cell.vision.steps.material import part_materials
+from cell.vision.steps.material import MaterialLabel, part_materials
 from cell.vision.steps.outlines import Outline, find_outlines
 from cell.vision.steps.pose import part_pose
 from cell.vision.steps.split import Piece, split_blob
@@ -225,14 +225,14 @@ def _partial(blob: Outline, fit: KindFit, plane: TablePlane, st: VisionSettings
     return [Piece(blob, KindFit("unknown", 0.0, fit.score, fp))]
 
 
-def _detection(i: int, piece: Piece, material: tuple[str, float]) -> Detection:
+def _detection(i: int, piece: Piece, material: MaterialLabel) -> Detection:
     fp, kind = piece.fit.footprint, piece.fit.kind
     pose = part_pose(fp.outline, centroid=fp.centroid, rect_angle=fp.rect_angle,           # step 6
                      kind=kind if not piece.blob.partial else "unknown", cut=piece.cut)
     return Detection(
         id=i,
-        material=material[0],
-        material_confidence=round(float(material[1]), 4),
+        material=material.material,
+        material_confidence=round(float(material.confidence), 4),
         kind=kind,
         kind_confidence=round(float(piece.fit.confidence), 4),
         centroid=(float(piece.blob.centroid[0]), float(piece.blob.centroid[1])),

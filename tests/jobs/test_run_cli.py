@@ -111,6 +111,15 @@ def test_a_calibration_without_the_overhead_camera_is_refused(demo, tmp_path):
     assert "wrist.json" in r.stderr and len(r.stderr.splitlines()) == 1  # the file is named
 
 
+def test_a_replay_with_rerun_turned_off_is_refused_before_the_run(tmp_path):
+    r = _cell("run", "scenarios/sort.toml", "--replay", str(tmp_path / "x.rrd"),
+              env={"RERUN": "Off"})
+    assert r.returncode == 2 and r.stderr.splitlines() == [
+        f"cell run: error: --replay {str(tmp_path / 'x.rrd')!r}: rerun logging is disabled "
+        "(RERUN=Off in the environment): unset it to write a replay"]
+    assert list(tmp_path.iterdir()) == [] and "calibrat" not in r.stdout
+
+
 def test_a_plane_the_calibrated_camera_does_not_look_down_on_is_refused_first(demo, tmp_path):
     out, _ = demo
     r = _cell("run", "scenarios/sort.toml", "--calibration", str(out / "report.calibration.json"),

@@ -8,7 +8,7 @@ and of the clutter (the share of edge pixels on no true outline), means over the
 from __future__ import annotations
 
 from cell.catalogue import LIGHTING_PRESETS
-from cell.sweep.reports.plots import heatmap, matrix
+from cell.sweep.reports.plots import Colours, heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, number, png, values
 
 __all__ = ["PLOTS", "build"]
@@ -34,7 +34,7 @@ def build(rows: list[dict], plan) -> Report:
                          lambda r: r.get("job.high"))
         heatmap(axes[i, 0], closed, highs, ratios, title=f"{li}: part outlines closed")
         heatmap(axes[i, 1], clutter, highs, ratios, title=f"{li}: clutter (edge pixels on no outline)",
-                cmap="RdYlGn_r", vmax=0.5)
+                colours=Colours(vmax=0.5, cmap="RdYlGn_r"))
         for ax in axes[i]:
             ax.set_xlabel("Canny high threshold (raw 3x3 Sobel magnitude)")
             ax.set_ylabel("low / high")

@@ -24,7 +24,7 @@ def _unchanged(row: dict) -> bool:
     return all((row.get(k) if row.get(k) is not None else neutral) == neutral for k, _, neutral in CHANGES)
 
 
-def _along(rows: list[dict], key: str, neutral: float) -> list[dict]:
+def _along(rows: list[dict], key: str) -> list[dict]:
     """The rows that change only ``key`` (and the unchanged ones)."""
     return [r for r in rows if all((r.get(k) if r.get(k) is not None else n) == n
                                    for k, _, n in CHANGES if k != key)]
@@ -52,7 +52,7 @@ def build(rows: list[dict], plan) -> Report:
     fig, axes = figure(2, len(CHANGES), size=(13.0, 7.0))
     heads, body = [], []
     for j, (key, name, neutral) in enumerate(CHANGES):
-        along = _along(rows, key, neutral)
+        along = _along(rows, key)
         for method in methods:
             mine = [r for r in along if r.get("job.method") == method]
             xs = sorted({r.get(key) if r.get(key) is not None else neutral for r in mine})
@@ -75,10 +75,10 @@ def build(rows: list[dict], plan) -> Report:
         hits = mean(mine, "hit_rate")
         spans = {}
         for key, _, neutral in CHANGES:
-            along = _along(rows, key, neutral)
+            along = _along(rows, key)
             lo, hi = _limit(along, key, method, neutral, -1), _limit(along, key, method, neutral, 1)
             spans[key] = (neutral if lo is None else lo, neutral if hi is None else hi)
-        turns = [r for r in _along(rows, "job.rotation_deg", 0.0) if r.get("job.method") == method]
+        turns = [r for r in _along(rows, "job.rotation_deg") if r.get("job.method") == method]
         widest = max(values(turns, "job.rotation_deg"), default=None)
         at_widest = mean([r for r in turns if r.get("job.rotation_deg") == widest], "hit_rate")
         (b0, b1), (c0, c1), (_, t1) = (spans[k] for k, _, _ in CHANGES)

@@ -7,11 +7,27 @@ Cells and points with no value (no run, or no samples) are left blank, never dra
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 from cell.sweep.reports.table import label, mean
 
-__all__ = ["heatmap", "lines", "matrix"]
+__all__ = ["ERRORS", "SHARES", "Colours", "heatmap", "lines", "matrix"]
+
+
+@dataclass(frozen=True)
+class Colours:
+    """How a heat map colours and labels its cells: values from ``vmin`` to ``vmax`` over
+    the matplotlib colour map ``cmap``, each written with ``fmt``."""
+
+    vmin: float = 0.0
+    vmax: float = 1.0
+    fmt: str = "{:.0%}"
+    cmap: str = "RdYlGn"
+
+
+SHARES = Colours()  # a share, 0..1, shown in per cent: more is better (green)
+ERRORS = Colours(cmap="RdYlGn_r", fmt="{:.2f}")  # an error: less is better (green)
 
 
 def matrix(rows: list[dict], metric: str, ys: list, xs: list, y_of, x_of) -> list[list[float | None]]:
@@ -23,13 +39,15 @@ def matrix(rows: list[dict], metric: str, ys: list, xs: list, y_of, x_of) -> lis
 
 
 def heatmap(ax, values: list[list[float | None]], xs: list, ys: list, *, title: str,
-            vmin: float = 0.0, vmax: float = 1.0, fmt: str = "{:.0%}", cmap: str = "RdYlGn",
-            annotate: bool = True) -> Any:
-    """Draw ``values`` (rows ``ys``, columns ``xs``) on ``ax``; returns the image."""
+            colours: Colours = SHARES, annotate: bool = True) -> Any:
+    """Draw ``values`` (rows ``ys``, columns ``xs``) on ``ax`` in ``colours``, each cell
+    written in it unless ``annotate`` is False or there are over 400; returns the image."""
     import numpy as np
 
+    c = colours
     data = np.array([[math.nan if v is None else v for v in row] for row in values], dtype=float)
-    image = ax.imshow(np.ma.masked_invalid(data), vmin=vmin, vmax=vmax, cmap=cmap, aspect="auto")
+    image = ax.imshow(np.ma.masked_invalid(data), vmin=c.vmin, vmax=c.vmax, cmap=c.cmap,
+                      aspect="auto")
     ax.set_xticks(range(len(xs)), [label(x) for x in xs], rotation=60, fontsize=7)
     ax.set_yticks(range(len(ys)), [label(y) for y in ys], fontsize=8)
     ax.set_title(title, fontsize=9)
@@ -37,7 +55,7 @@ def heatmap(ax, values: list[list[float | None]], xs: list, ys: list, *, title: 
         for i, row in enumerate(values):
             for j, v in enumerate(row):
                 if v is not None:
-                    ax.text(j, i, fmt.format(v), ha="center", va="center", fontsize=5.5)
+                    ax.text(j, i, c.fmt.format(v), ha="center", va="center", fontsize=5.5)
     return image
 
 

@@ -8,9 +8,10 @@ the seeds).
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 
-from cell.sweep.reports.plots import heatmap, matrix
+from cell.sweep.reports.plots import ERRORS, heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, mean, number, png, values
 
 __all__ = ["PLOTS", "build"]
@@ -42,8 +43,8 @@ def build(rows: list[dict], plan) -> Report:
     heatmap(axes[0, 0], found, bits, resolutions, title="parts found")
     heatmap(axes[0, 1], klass, bits, resolutions, title="classification accuracy (kind and material)")
     top = max((v for row in pos for v in row if v is not None), default=1.0)
-    heatmap(axes[1, 0], pos, bits, resolutions, title="position error, mean (mm)", vmin=0.0,
-            vmax=min(top, 2.0), fmt="{:.2f}", cmap="RdYlGn_r")
+    heatmap(axes[1, 0], pos, bits, resolutions, title="position error, mean (mm)",
+            colours=dataclasses.replace(ERRORS, vmax=min(top, 2.0)))
     for ax in (axes[0, 0], axes[0, 1], axes[1, 0]):
         ax.set_xlabel("bits per channel")
     ax = axes[1, 1]

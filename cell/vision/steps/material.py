@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -47,10 +48,19 @@ from cell.vision._checks import check_range
 from cell.vision.settings import VisionSettings
 from cell.vision.steps.foreground import noise_sigma
 
-__all__ = ["MaterialFeatures", "PartPixels", "classify_material", "material_features",
-           "part_materials"]
+__all__ = ["MaterialFeatures", "MaterialLabel", "PartPixels", "classify_material",
+           "material_features", "part_materials"]
 
-_UNKNOWN = ("unknown", 0.0)
+
+class MaterialLabel(NamedTuple):
+    """What the material step says of one part: ``material`` (``metal``, ``plastic`` or
+    ``unknown``) and its ``confidence`` (0..1; 0 for ``unknown``)."""
+
+    material: str
+    confidence: float
+
+
+_UNKNOWN = MaterialLabel("unknown", 0.0)
 _RING, _MIN_FREE = 6, 30  # belt window: the box grown by 6 px; fewer free pixels: not measured
 _MIN_PIXELS, _WIDE = 8, 150  # interior pixels needed at all; below _WIDE, erode 3x3 not 5x5
 _SUPPORT = 2  # px the filters (3x3 mean, then 3x3 Sobel) read around a pixel
@@ -113,8 +123,8 @@ class MaterialFeatures:
 
 
 def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPixels], *,
-                   settings: VisionSettings, backlit: bool) -> list[tuple[str, float]]:
-    """(material in {'metal', 'plastic', 'unknown'}, confidence) per part (module docstring).
+                   settings: VisionSettings, backlit: bool) -> list[MaterialLabel]:
+    """The :class:`MaterialLabel` of each part (module docstring).
     ``image`` uint8 RGB (H, W, 3); ``foreground`` uint8 (H, W), 255 on any part's pixels.
     Under 30 free pixels around a part, the belt's colour is the median colour of the free
     pixels of the whole frame. ``unknown`` (confidence 0) for a back-lit frame, an interior
@@ -197,8 +207,8 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
 
 
 def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal: float,
-                      grain_z_min: float, albedo_sigma: float) -> tuple[str, float]:
-    """``("metal" | "plastic" | "unknown", confidence)`` for one part: the albedo's nearest
+                      grain_z_min: float, albedo_sigma: float) -> MaterialLabel:
+    """The :class:`MaterialLabel` of one part: the albedo's nearest
     catalogue finishes give a prior P(metal) (Gaussian tolerance ``albedo_sigma``), held
     within 0.05..0.95 (from 0.01 for a colour no metal has); grain then multiplies the
     odds: clear grain (``grain >= grain_metal`` with ``grain_z >= grain_z_min``) on a
@@ -355,7 +365,7 @@ def _grain_evidence(grain: np.ndarray, z: np.ndarray, even: np.ndarray, *, grain
 
 
 def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_z_min: float,
-            albedo_sigma: float) -> list[tuple[str, float]]:
+            albedo_sigma: float) -> list[MaterialLabel]:
     """Labels of parts from their albedos (P, 3) and grain rows (P, 4, as :func:`_grain`):
     the albedo's softmax prior over the catalogue finishes, held within 0.05..0.95 (0.01..0.95
     for a colour no metal has), its odds multiplied by the grain's evidence (see
@@ -372,5 +382,5 @@ def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_
     odds = prior / (1 - prior) * np.where(evidence > 0.0, _GRAIN_ODDS**evidence, 1.0)
     odds *= np.where((evidence <= 0.0) & lit & (g < 0.45 * grain_metal) & (vis >= _VISIBLE),
                      1.0 / _GRAIN_ODDS, 1.0)
-    return [("metal", q) if q >= 0.5 else ("plastic", 1 - q)
+    return [MaterialLabel("metal", q) if q >= 0.5 else MaterialLabel("plastic", 1 - q)
             for q in (odds / (1 + odds)).tolist()]

@@ -79,7 +79,10 @@ def refine_hand_eye(data: HandEyeData, T_flange_camera: np.ndarray, *,
     Raises ``CalibrationError`` when the optimum is not finite.
     """
     X0 = np.asarray(T_flange_camera, dtype=np.float64)
-    B0 = consistency(data, X0)[0] if T_base_board is None else np.asarray(T_base_board, np.float64)
+    if T_base_board is None:
+        B0, _ = consistency(data, X0)
+    else:
+        B0 = np.asarray(T_base_board, np.float64)
     r0 = _residuals(np.zeros(12), data, X0, B0)
     sol = least_squares(_residuals, np.zeros(12), args=(data, X0, B0), **_LSQ)
     X, B = _unpack(sol.x, X0, B0)
@@ -144,7 +147,10 @@ def refine_eye_to_hand(data: HandEyeData, T_base_camera: np.ndarray, *,
         raise CalibrationError(f"eye-to-hand refinement: terms must be one of {sorted(FREE_DISTORTION)}, "
                                f"got {terms}")
     C0 = np.asarray(T_base_camera, dtype=np.float64)
-    G0 = consistency_fixed(data, C0)[0] if T_flange_board is None else np.asarray(T_flange_board, np.float64)
+    if T_flange_board is None:
+        G0, _ = consistency_fixed(data, C0)
+    else:
+        G0 = np.asarray(T_flange_board, np.float64)
     start = (C0, G0, np.asarray(data.K, np.float64), np.asarray(data.dist, np.float64).copy())
     free = FREE_DISTORTION[terms] if free_intrinsics else ()
     n = 12 + (4 + len(free) if free_intrinsics else 0)

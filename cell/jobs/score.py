@@ -69,7 +69,7 @@ class Scorekeeper:
         if det.position is None or not self.world.on_stage:
             return
         parts = self.world.on_stage
-        gaps = [float(np.hypot(*(self.world.part_pose(p.id)[0][:2] - det.position))) for p in parts]
+        gaps = [float(np.hypot(*(_true_xy(self.world, p.id) - det.position))) for p in parts]
         part = parts[int(np.argmin(gaps))]
         self.matches[record.index] = _Match(part.id, 1000.0 * min(gaps),
                                             _yaw_error(det, part.kind, self.world.part_yaw(part.id)))
@@ -125,6 +125,12 @@ def _yaw_error(det: object, kind: str, true_yaw: float) -> float | None:
 
 def _quantile(values: list[float], q: float) -> float | None:
     return float(np.quantile(values, q)) if values else None
+
+
+def _true_xy(world: object, part_id: int) -> np.ndarray:
+    """GROUND TRUTH (scoring): the part's (x, y) on the table (m)."""
+    position, _ = world.part_pose(part_id)
+    return position[:2]
 
 
 def metrics_of(rows: list[dict], records: list[PickRecord], *, sim_time: float,

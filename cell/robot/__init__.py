@@ -18,6 +18,7 @@ __all__ = [
     "PickResult",
     "RobotSettings",
     "Segment",
+    "Setpoint",
     "SuctionCup",
     "choose_tool_yaw",
     "down_rotation",
@@ -30,7 +31,7 @@ _WHERE = {
     "GRASP_POINTS": "pick", "PartTarget": "pick", "PickPlace": "pick", "PickResult": "pick",
     "choose_tool_yaw": "pick", "ArmDriver": "motion", "ArmIK": "ik", "down_rotation": "ik",
     "tool_yaw": "ik", "ArmKinematics": "kinematics", "RobotSettings": "settings",
-    "Segment": "trajectory", "min_time": "trajectory", "plan_segment": "trajectory",
+    "Segment": "trajectory", "Setpoint": "trajectory", "min_time": "trajectory", "plan_segment": "trajectory",
     "SuctionCup": "suction",
 }
 

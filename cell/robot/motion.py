@@ -92,7 +92,7 @@ class ArmDriver:
         for k in range(n):  # the set-point of each step is the reference at its start
             self.command(*seg.sample(k * self.dt))
             self._step(1)
-            err = np.abs(self.joint_positions() - seg.sample((k + 1) * self.dt)[0]).max()
+            err = np.abs(self.joint_positions() - seg.sample((k + 1) * self.dt).q).max()
             self.max_tracking_error = max(self.max_tracking_error, float(err))
         self.command(seg.q1, np.zeros(6), np.zeros(6))
         self.settle(what=what, tolerance=tolerance)

@@ -13,12 +13,13 @@ and arrive together. Angles in rad, times in s.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from cell.errors import MotionError
 
-__all__ = ["Segment", "min_time", "plan_segment"]
+__all__ = ["Segment", "Setpoint", "min_time", "plan_segment"]
 
 
 def _profile_limits(dq: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> tuple[float, float]:
@@ -50,6 +51,15 @@ def min_time(q0: np.ndarray, q1: np.ndarray, vmax, amax) -> float:
     return _duration(*_profile_limits(dq, v, a))[0]
 
 
+class Setpoint(NamedTuple):
+    """Where a :class:`Segment` is at one time: joint positions ``q`` (rad), velocities
+    ``qd`` (rad/s) and accelerations ``qdd`` (rad/s^2), (6,) each."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+
+
 @dataclass(frozen=True)
 class Segment:
     """A rest-to-rest straight joint motion, time-optimal under the limits.
@@ -66,11 +76,12 @@ class Segment:
     sd_max: float
     sdd_max: float
 
-    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sample(self, t: float) -> Setpoint:
+        """The :class:`Setpoint` at time ``t`` (s; before 0 the start, after the end the goal)."""
         dq = self.q1 - self.q0
         T, ta, a = self.duration, self.t_accel, self.sdd_max
         if T <= 0.0 or t >= T:
-            return self.q1.copy(), np.zeros_like(dq), np.zeros_like(dq)
+            return Setpoint(self.q1.copy(), np.zeros_like(dq), np.zeros_like(dq))
         t = max(t, 0.0)
         top = a * ta  # top path speed (reached or not)
         if t < ta:
@@ -80,7 +91,7 @@ class Segment:
         else:
             r = T - t
             s, sd, sdd = 1.0 - 0.5 * a * r * r, a * r, -a
-        return self.q0 + s * dq, sd * dq, sdd * dq
+        return Setpoint(self.q0 + s * dq, sd * dq, sdd * dq)
 
 
 def plan_segment(q0: np.ndarray, q1: np.ndarray, vmax, amax) -> Segment:

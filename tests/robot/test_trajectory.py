@@ -20,9 +20,9 @@ def test_commanded_samples_respect_both_limits_and_arrive(q0, q1):
     seg = plan_segment(q0, q1, VMAX, AMAX)
     dt = 0.002
     ts = np.arange(0.0, seg.duration + 4 * dt, dt)
-    q = np.array([seg.sample(t)[0] for t in ts])
-    qd = np.array([seg.sample(t)[1] for t in ts])
-    qdd = np.array([seg.sample(t)[2] for t in ts])
+    q = np.array([seg.sample(t).q for t in ts])
+    qd = np.array([seg.sample(t).qd for t in ts])
+    qdd = np.array([seg.sample(t).qdd for t in ts])
     assert np.abs(qd).max() <= VMAX * (1 + 1e-9)
     assert np.abs(qdd).max() <= AMAX * (1 + 1e-9)
     # the commanded positions themselves, differenced at the servo rate
@@ -36,7 +36,7 @@ def test_duration_is_the_single_joint_bound_of_the_limiting_joint():
     # A long move: trapezoid, the top speed is reached.
     seg = plan_segment([0.0, 0.0], [3.0, -1.0], VMAX, AMAX)
     assert seg.duration == pytest.approx(3.0 / VMAX + VMAX / AMAX)
-    peak = max(np.abs(seg.sample(t)[1][0]) for t in np.linspace(0, seg.duration, 500))
+    peak = max(np.abs(seg.sample(t).qd[0]) for t in np.linspace(0, seg.duration, 500))
     assert peak == pytest.approx(VMAX, rel=1e-6)
     # A short move: triangle, full acceleration, never at top speed.
     short = plan_segment([0.0], [0.1], VMAX, AMAX)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,11 +60,15 @@ class Eye:
     calibrated model) with ``detector`` (from :func:`~cell.jobs.detectors.load_detector`:
     a user's is checked there); ``truth`` also renders the segmentation (for the
     report's scoring and the replay, never for a decision). ``timers`` (a dict of
-    seconds) collects ``render`` and ``detect`` wall times."""
+    seconds) collects ``render`` and ``detect`` wall times; ``step(n)`` runs n physics
+    steps while a blacked-out frame is retaken (default ``world.step``; the sort job's
+    own, so that the time is counted as physics and the replay logs it)."""
 
     def __init__(self, world: object, camera: CameraModel, detector: object, scenario: Scenario,
-                 *, truth: bool = False, timers: dict[str, float] | None = None) -> None:
+                 *, truth: bool = False, timers: dict[str, float] | None = None,
+                 step: Callable[[int], None] | None = None) -> None:
         self.world, self.camera, self.detector = world, camera, detector
+        self._step = step
         self.presets = scenario.capture.presets or (scenario.lighting,)
         self.settings = scenario.sort
         self.truth = truth
@@ -92,7 +97,8 @@ class Eye:
         None when every retake was black."""
         for retake in range(self.settings.retakes + 1):
             if retake:
-                self.world.step(max(1, round(self.settings.retake_wait / self.world.model.opt.timestep)))
+                step = self._step if self._step is not None else self.world.step
+                step(max(1, round(self.settings.retake_wait / self.world.model.opt.timestep)))
             t = self.world.time
             images, seg = self._shoot()
             if any(is_black(im) for im in images.values()):

@@ -64,8 +64,8 @@ class SortLoop:
             self.timers["replay"] += time.perf_counter() - t0
             self.skill = PickPlace(self.world.model, self.world.data, self._step, scenario.robot)
             self.timers["setup"] = time.perf_counter() - t_setup - self.timers["replay"]
-            self.eye = Eye(self.world, camera, detector, scenario,
-                           truth=self.replay is not None, timers=self.timers)
+            self.eye = Eye(self.world, camera, detector, scenario, truth=self.replay is not None,
+                           timers=self.timers, step=self._step)
         except BaseException:
             self.world.close()  # (its renderers' GL contexts)
             raise

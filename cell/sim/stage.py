@@ -6,9 +6,14 @@ compensated, at its own slot far from every view) until the conveyor spawns it. 
 it moves only through gravity, contact and adhesion forces. Two events take it out of the
 contact set again, parked back at its slot: its centre crossing the catch line past the
 belt's end (``caught``), or its coming to rest inside a bin (``binned``, with the bin's
-name). So nothing piles up, the contact set holds only the parts still in play, and a
-run's cost grows linearly with its length. :meth:`Stage.place_of` says, for scoring, where
-a part ended.
+name). So nothing piles up, the contact set holds only the parts still in play.
+
+The parts off stage sleep (MuJoCo's ``mjENBL_SLEEP``): a parked part, at rest, falls
+asleep after a few steps and costs the physics nearly nothing, so a step's cost follows the
+parts in play, not the run's length. A part in play never sleeps (its policy
+``mjSLEEP_NEVER``: a part at rest on a stopped belt must still ride off when the belt
+starts, which moves no body that could wake it). :meth:`Stage.place_of` says, for
+scoring, where a part ended.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ __all__ = ["PartInfo", "Stage", "offstage_slot"]
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
 _BIN_CHECK_EVERY = 50  # physics steps between looks for parts come to rest in a bin
 _AT_REST = 0.01  # m/s and rad/s: a part in a bin moving slower than this has come to rest
+_MAY_SLEEP = mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED  # a part off stage
+_NEVER_SLEEPS = mujoco.mjtSleepPolicy.mjSLEEP_NEVER  # a part in play
 
 
 def offstage_slot(part_id: int) -> np.ndarray:
@@ -59,8 +66,17 @@ class Stage:
         self._part_of_body = {p.body_id: p.id for p in parts}
         self._steps = 0
 
+    def let_sleep(self) -> None:
+        """Turn MuJoCo's sleeping on (once the model's poses are computed): the parts off
+        stage, at rest, fall asleep after a few steps."""
+        for p in self.parts:
+            self.model.tree_sleep_policy[self.model.body_treeid[p.body_id]] = _MAY_SLEEP
+        self.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+
     def enter(self, part: PartInfo) -> None:
-        """``part`` is now in play (spawned)."""
+        """``part`` is now in play (spawned): awake, and kept awake."""
+        tree = self.model.body_treeid[part.body_id]
+        self.model.tree_sleep_policy[tree] = _NEVER_SLEEPS
         self.live = np.append(self.live, part.body_id)
 
     def after_step(self) -> None:
@@ -110,6 +126,7 @@ class Stage:
         self.data.qvel[dof : dof + 6] = 0
         self.data.qacc_warmstart[dof : dof + 6] = 0
         self.model.body_gravcomp[part.body_id] = 1.0
+        self.model.tree_sleep_policy[self.model.body_treeid[part.body_id]] = _MAY_SLEEP
 
     def place_of(self, part: PartInfo) -> str:
         """Where ``part`` (spawned) is: a bin's name (resting in it and parked, or inside it

@@ -155,6 +155,7 @@ class World:
         if arm:
             self._arm_home()
         mujoco.mj_forward(self.model, self.data)
+        self.stage.let_sleep()
 
     def _arm_home(self) -> None:
         """Put the arm at its home configuration, with its servos holding it there."""

@@ -58,3 +58,35 @@ def test_only_the_catch_zone_catches(world_factory):
     assert [p.id for p in world.on_stage] == [beside.id]
     assert world.place_of(beside.id) == "elsewhere" and world.part_pose(beside.id)[0][2] < 0.05
     assert world.place_of(past_end.id) == "caught"
+
+
+def _asleep(world, part) -> bool:
+    return bool(world.data.tree_asleep[world.model.body_treeid[part.body_id]] >= 0)
+
+
+def test_parts_off_stage_sleep_and_parts_in_play_do_not(world_factory):
+    """Waiting and caught parts sleep (MuJoCo's sleeping): they cost the physics nearly
+    nothing, so a step's cost follows the parts in play, not the run's length. A part in
+    play stays awake, even at rest on a belt held still, and rides off when it runs again."""
+    world = world_factory(parts={"count": 6, "spacing": 0.1},
+                          conveyor={"speed": 0.5, "mode": "continuous"},
+                          faults={"conveyor_stop": [0.2, 1.8]})  # the belt stands 0.2-2.0 s
+    world.step(50)
+    waiting = world.parts[world.spawned:]
+    assert waiting and all(_asleep(world, p) for p in waiting)
+    first = world.parts[0]
+    assert world.spawned >= 1 and not _asleep(world, first)
+    assert world.data.nv_awake < world.model.nv
+    while world.time < 1.95:  # at rest on the held belt for over a second...
+        world.step(10)
+    assert not _asleep(world, first)
+    x0 = world.part_pose(first.id)[0][0]
+    while world.time < 2.5:  # ...and it rides off when the belt runs again
+        world.step(10)
+    assert world.part_pose(first.id)[0][0] > x0 + 0.1
+    for _ in range(100):  # once caught past the belt's end it is parked, and sleeps again
+        world.step(50)
+        if world.is_caught(first.id):
+            break
+    world.step(50)
+    assert world.is_caught(first.id) and _asleep(world, first)

@@ -2,7 +2,10 @@
 
 Each command lives in its own module with a ``main(argv) -> int``; this file only
 dispatches, so a command's imports (MuJoCo, OpenCV, ...) load only when it runs. Any
-``CellError`` becomes one line on stderr and exit status 2. Every message that echoes
+``CellError`` becomes one line on stderr and exit status 2. Ctrl-C (SIGINT) and a
+polite kill (SIGTERM: ``kill``, ``timeout``, a job scheduler) stop a command the same way,
+unwinding it so that its outputs stay whole or absent: one line, exit status 130 or 143.
+Every message that echoes
 a user's string goes through :func:`printable` (:func:`cell.config.escape`), so it cannot
 carry terminal escapes, line breaks or undecodable bytes.
 """
@@ -11,7 +14,9 @@ from __future__ import annotations
 
 import importlib
 import os
+import signal
 import sys
+import threading
 from importlib.metadata import PackageNotFoundError, version
 
 from cell.config import escape as printable  # (one escaping rule for every message)
@@ -43,6 +48,15 @@ def _usage() -> str:
     return "\n".join(lines)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that a command unwinds as on Ctrl-C (its
+    temporary files removed, its workers stopped)."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
@@ -59,9 +73,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cell: error: unknown command {printable(repr(name))}; valid: {', '.join(COMMANDS)}",
               file=sys.stderr)
         return 2
+    before = _catch_sigterm()
     try:
         module = importlib.import_module(COMMANDS[name][0])
         return int(module.main(rest) or 0)
+    except Terminated:
+        print(f"cell {name}: terminated", file=sys.stderr)
+        return 143
     except CellError as exc:
         print(f"cell {name}: error: {printable(str(exc))}", file=sys.stderr)
         return 2
@@ -71,6 +89,19 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # the reader went away (`cell detect ... | head`): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        if before is not None:
+            signal.signal(signal.SIGTERM, before)
+
+
+def _catch_sigterm() -> object | None:
+    """Make SIGTERM raise :class:`Terminated` while a command runs; the handler it had
+    (None when left alone: ignored by the caller, or not the main thread)."""
+    before = signal.getsignal(signal.SIGTERM)
+    if before is not signal.SIG_DFL or threading.current_thread() is not threading.main_thread():
+        return None
+    signal.signal(signal.SIGTERM, _terminate)
+    return before
 
 
 if __name__ == "__main__":

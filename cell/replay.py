@@ -19,8 +19,9 @@ Entity layout::
     metrics/<name>                    one time series (Scalars) per metric
     events                            the run's text log (TextLog)
 
-Parts waiting for their turn, and parts caught past the belt's end, float off stage
-(about 3 m out): they stay in the recording, away from the cell. Body and geom names are
+Parts waiting for their turn, parts caught past the belt's end and parts come to rest in a
+bin float off stage (about 3 m out): they stay in the recording, away from the cell (a
+binned part leaves its bin in the replay when it is parked). Body and geom names are
 escaped where they hold a ``/`` (``arm/base`` is one path part).
 
 The file is written to a temporary file beside ``path`` and renamed into place by

@@ -26,6 +26,8 @@ from cell.calib.transforms import pose_error
 
 __all__ = ["CameraTruth", "format_camera", "held_intrinsics", "score_camera"]
 
+_RMS_BAR_PX = 0.3  # reprojection RMS (px) over which the printed report warns
+
 
 @dataclass(frozen=True, eq=False)
 class CameraTruth:
@@ -132,6 +134,11 @@ def format_camera(camera: str, report: dict) -> str:
         f"  reprojection RMS {i['reproj_rms_px']:.4f} px (views {min(i['view_rms_px']):.3f}"
         f"..{max(i['view_rms_px']):.3f})",
     ]
+    if i["reproj_rms_px"] > _RMS_BAR_PX:
+        hint = (" (a decentred lens wants calibration.overhead_distortion_terms = 4)"
+                if report["pose"] == "T_base_camera" else "")
+        lines.append(f"  warning: over {_RMS_BAR_PX} px: the lens model does not fit these views"
+                     f"{hint}; the camera's pose may be off by degrees")
     if "intrinsics_refined" in report:
         r = report["intrinsics_refined"]
         held = "the file holds these" if report["intrinsics_held"] == "refined" else "not kept"

@@ -143,3 +143,16 @@ def test_overhead_alone_and_within_all_are_the_same_calibration():
     alone = run_calibration(scenario, camera="overhead", touch=False)
     both = run_calibration(scenario, camera="all", touch=False)
     assert alone.calibration.camera("overhead").to_dict() == both.calibration.camera("overhead").to_dict()
+
+
+def test_the_printed_report_warns_when_the_lens_model_does_not_fit(run):
+    import copy
+
+    from cell.calib.report import format_camera
+
+    rep = run.report["cameras"]["overhead"]
+    assert "warning" not in format_camera("overhead", rep)  # (0.03 px here)
+    misfit = copy.deepcopy(rep)
+    misfit["intrinsics"]["reproj_rms_px"] = 1.16  # a decentred lens with 2 terms (p1 = p2 = 0.05)
+    text = format_camera("overhead", misfit)
+    assert "warning: over 0.3 px" in text and "overhead_distortion_terms = 4" in text

@@ -206,3 +206,25 @@ def test_outputs_are_written_only_when_everything_succeeded(capsys, monkeypatch,
                           "--report", str(tmp_path / "r.json"), "--replay", str(tmp_path / "r.rrd"))
     assert code == 2 and "no PNG today" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_polite_kill_leaves_the_folder_as_it_was(tmp_path):
+    """SIGTERM (kill, timeout, a job scheduler) unwinds the run as Ctrl-C does: one line,
+    exit status 143, and the replay's temporary file removed with everything else."""
+    import signal
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "cell.cli", "run", "scenarios/sort.toml", "--set", "parts.count=3",
+         "--replay", str(tmp_path / "r.rrd"), "--report", str(tmp_path / "r.json")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+        env={**os.environ, "MUJOCO_GL": "egl"},
+        preexec_fn=lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL))
+    end = time.monotonic() + 120
+    while not list(tmp_path.glob(".r.rrd.*")):  # the replay is being written: mid-run
+        assert proc.poll() is None and time.monotonic() < end, proc.communicate()
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and stderr.splitlines() == ["cell run: terminated"], stderr
+    assert list(tmp_path.iterdir()) == []

@@ -118,6 +118,8 @@ def build(rows: list[dict], plan) -> Report:
                     and base_pos is not None and p <= base_pos + 0.05 and (mean(m, "recall") or 0)
                     >= (mean(lossless, "recall") or 0) - 0.02):
                 keeps.append(q)
+        if not lossless:  # nothing to compare with: the table only
+            continue
         # the lowest quality from which every higher one keeps the figures
         k = len(qualities)
         while k > 0 and qualities[k - 1] in keeps:
@@ -135,6 +137,9 @@ def build(rows: list[dict], plan) -> Report:
                          f"{number(mean(m, 'classification_accuracy'), '.0%')}, position "
                          f"{number(mean(m, 'position_error_mm_mean'), '.2f')} mm (lossless "
                          f"{number(base_pos, '.2f')} mm), at ratio {mean(m, 'ratio'):.0f}")
+    if jpeg and not lossless:
+        heads.append("no lossless run (png or rle) in this grid: the JPEG figures have no reference "
+                     "to be judged against")
     table = markdown(["codec", "quality", "kB / frame", "ratio", "PSNR dB", "found", "classification",
                       "position mm"], body)
     plot = Plot(PLOTS[0], "compression ratio per codec, and the detector on decoded frames",

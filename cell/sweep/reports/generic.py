@@ -2,8 +2,9 @@
 
 The x axis is the first parameter that varies and takes numbers (else the first that
 varies); each other combination of varying parameters is one line (at most eight shown);
-one panel per metric (at most six). The headline names, for the first metric, the
-setting with the highest and the lowest mean.
+one panel per metric that changes between runs (at most six; a count that is the same in
+every run, such as the parts per scene, says nothing). The headline names, for the first
+of them, the setting with the highest and the lowest mean.
 """
 
 from __future__ import annotations
@@ -45,7 +46,8 @@ def overview(rows: list[dict], params: tuple[str, ...], metrics: tuple[str, ...]
     """Each metric of ``metrics`` against the parameters of ``params`` that vary."""
     rows = done(rows)
     keys = varying(rows, params)
-    shown = [m for m in metrics if mean(rows, m) is not None][:_PANELS]
+    measured = [m for m in metrics if mean(rows, m) is not None]
+    shown = ([m for m in measured if len(values(rows, m)) > 1] or measured)[:_PANELS]
     if not rows or not shown:
         return Report(("No run produced figures.",), (), ())
     numeric = [k for k in keys if all(isinstance(v, (int, float)) for v in values(rows, k))]
@@ -78,5 +80,7 @@ def overview(rows: list[dict], params: tuple[str, ...], metrics: tuple[str, ...]
         text = lambda c: ", ".join(f"{k}={label(v)}" for k, v in zip(keys, c, strict=True))  # noqa: E731
         head = (f"{first}: highest {number(hi, '.3g')} at {text(hi_c)}; lowest {number(lo, '.3g')} "
                 f"at {text(lo_c)} (mean over seeds).",)
+        if number(hi, ".3g") == number(lo, ".3g"):
+            head = (f"{first}: {number(hi, '.3g')} at every setting (mean over seeds).",)
     return Report(head, (Plot(file, "each metric against the grid", png(fig)),),
                   (markdown(keys + shown, table_rows),))

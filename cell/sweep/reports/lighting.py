@@ -30,6 +30,19 @@ def _order(names: set[str]) -> list[str]:
     return first + sorted(names - set(first))
 
 
+def _share(by: dict, job: str, metric: str, li: str) -> float | str:
+    """The mean of ``metric`` of ``job`` under light ``li``, or why there is none: ``no run``,
+    ``no value``, or ``unknown`` for the material where most parts were called unknown (a
+    silhouette under a back light: no material to be right about)."""
+    rows = by.get((job, li))
+    if not rows:
+        return "no run"
+    if metric == "material_accuracy" and (mean(rows, "material_unknown") or 0) > 0.5:
+        return "unknown"
+    value = mean(rows, metric)
+    return "no value" if value is None else float(value)
+
+
 def _figure(lights: list[str], by: dict) -> bytes:
     import numpy as np
 
@@ -38,9 +51,12 @@ def _figure(lights: list[str], by: dict) -> bytes:
     width = 0.8 / len(_BARS)
     x = np.arange(len(lights))
     for k, (job, metric, name) in enumerate(_BARS):
-        ys = [mean(by[(job, li)], metric) if (job, li) in by else None for li in lights]
-        ax.bar(x + (k - (len(_BARS) - 1) / 2) * width, [y if y is not None else 0 for y in ys], width,
-               label=name)
+        ys = [_share(by, job, metric, li) for li in lights]
+        at = x + (k - (len(_BARS) - 1) / 2) * width
+        ax.bar(at, [y if isinstance(y, float) else float("nan") for y in ys], width, label=name)
+        for xi, y in zip(at, ys, strict=True):  # no bar is not a bar of 0: say why
+            if not isinstance(y, float):
+                ax.text(xi, 0.02, y, rotation=90, ha="center", va="bottom", fontsize=6)
     ax.set_xticks(x, lights)
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("share (mean over seeds)")
@@ -50,7 +66,8 @@ def _figure(lights: list[str], by: dict) -> bytes:
     for k, (job, metric, name) in enumerate((("detect", "position_error_mm_mean", "detector: mean per frame"),
                                              ("sort", "position_error_mm_p95", "sort job: p95"))):
         ys = [mean(by[(job, li)], metric) if (job, li) in by else None for li in lights]
-        ax.bar(x + (k - 0.5) * 0.4, [y if y is not None else 0 for y in ys], 0.4, label=name)
+        ax.bar(x + (k - 0.5) * 0.4, [y if y is not None else float("nan") for y in ys], 0.4,
+               label=name)
     ax.set_xticks(x, lights)
     ax.set_ylabel("position error (mm)")
     ax.legend(fontsize=8)
@@ -82,9 +99,12 @@ def build(rows: list[dict], plan) -> Report:
                                          mean(by[("detect", li)], "material_accuracy") or 0), reverse=True)
     if detect_rank:
         best, worst = detect_rank[0], detect_rank[-1]
-        heads.append(f"detector: most parts found under {best} "
-                     f"({number(mean(by[('detect', best)], 'recall'), '.0%')}), fewest under {worst} "
-                     f"({number(mean(by[('detect', worst)], 'recall'), '.0%')})")
+        found = {li: number(mean(by[("detect", li)], "recall"), ".0%") for li in detect_rank}
+        if found[best] == found[worst]:  # (as printed: a tie is no ranking)
+            heads.append(f"detector: the same share of parts found under every light ({found[best]})")
+        else:
+            heads.append(f"detector: most parts found under {best} ({found[best]}), fewest under "
+                         f"{worst} ({found[worst]})")
     placed = [li for li in lights if mean(by.get(("detect", li), []), "position_error_mm_mean") is not None]
     if placed:
         err = {li: mean(by[("detect", li)], "position_error_mm_mean") for li in placed}

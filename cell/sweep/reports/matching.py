@@ -72,6 +72,11 @@ def build(rows: list[dict], plan) -> Report:
     base = [r for r in rows if _unchanged(r)]
     for method in methods:
         mine = [r for r in base if r.get("job.method") == method]
+        if not mine:  # the ranges are measured from the unchanged frame
+            heads.append(f"{method}: no run on the unchanged frame in this grid (brightness +0, "
+                         "contrast x1, no turn), which its ranges are measured from")
+            body.append([method, "-", "-", "-", "-", "-", "-", "-"])
+            continue
         hits = mean(mine, "hit_rate")
         spans = {}
         for key, _, neutral in CHANGES:

@@ -42,9 +42,8 @@ def build(rows: list[dict], plan) -> Report:
     fig, axes = figure(2, 2, size=(11.0, 7.5))
     heatmap(axes[0, 0], found, bits, resolutions, title="parts found")
     heatmap(axes[0, 1], klass, bits, resolutions, title="classification accuracy (kind and material)")
-    top = max((v for row in pos for v in row if v is not None), default=1.0)
     heatmap(axes[1, 0], pos, bits, resolutions, title="position error, mean (mm)",
-            colours=dataclasses.replace(ERRORS, vmax=min(top, 2.0)))
+            colours=dataclasses.replace(ERRORS, vmax=2.0))  # (one scale for every run: 0-2 mm)
     for ax in (axes[0, 0], axes[0, 1], axes[1, 0]):
         ax.set_xlabel("bits per channel")
     ax = axes[1, 1]

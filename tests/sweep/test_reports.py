@@ -1,0 +1,40 @@
+"""Study reports on grids that lack what a headline compares against: they say so, rather
+than reading a missing reference as a failure (rows made by hand, no runs)."""
+
+from __future__ import annotations
+
+from cell.sweep.reports import compression, generic, lighting, matching
+
+
+def _jpeg(quality: int) -> dict:
+    return {"job": "compress", "job.codec": "jpeg", "job.quality": quality, "job.chroma": "420",
+            "bytes": 20e3, "ratio": 45.0, "psnr_db": 40.0, "recall": 1.0,
+            "classification_accuracy": 1.0, "position_error_mm_mean": 0.14}
+
+
+def test_compression_without_a_lossless_run_judges_no_jpeg():
+    heads = compression.build([_jpeg(90), _jpeg(50)], None).headlines
+    assert any("no lossless run" in h for h in heads)
+    assert not any("loses detector accuracy" in h or "keeps the detector" in h for h in heads)
+
+
+def test_matching_without_the_unchanged_frame_says_so():
+    row = {"job": "match", "job.method": "ncc", "job.brightness": 40.0, "job.contrast": 1.0,
+           "job.rotation_deg": 0.0, "hit_rate": 1.0, "peak_error_px_median": 0.0, "match_ms": 3.0}
+    heads = matching.build([row], None).headlines
+    assert heads == ("ncc: no run on the unchanged frame in this grid (brightness +0, contrast x1, "
+                     "no turn), which its ranges are measured from",)
+
+
+def test_lighting_with_every_part_found_under_every_light_ranks_none():
+    rows = [{"job": "detect", "lighting": li, "recall": 1.0, "kind_accuracy": 1.0,
+             "material_accuracy": acc, "material_unknown": unknown, "position_error_mm_mean": 0.1}
+            for li, acc, unknown in (("front", 1.0, 0.0), ("back", 0.0, 1.0))]
+    heads = lighting.build(rows, None).headlines
+    assert heads[0] == "detector: the same share of parts found under every light (100%)"
+
+
+def test_the_generic_report_leads_with_a_metric_that_changes():
+    rows = [{"lighting": li, "parts": 6, "found": found} for li, found in (("front", 6), ("dim", 4))]
+    report = generic.overview(rows, ("lighting",), ("parts", "found"))
+    assert report.headlines[0].startswith("found: highest 6 at lighting=front; lowest 4")

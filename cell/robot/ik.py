@@ -26,6 +26,7 @@ import mujoco
 import numpy as np
 
 from cell.errors import IKError
+from cell.robot._checks import finite, finite_vector
 from cell.robot.settings import RobotSettings
 from cell.sim import layout
 from cell.sim.arm import JOINT_NAMES, add_arm
@@ -150,12 +151,17 @@ class ArmIK:
         the tolerance in ``ik_max_iterations`` (unreachable, or blocked by the limits).
         """
         s = self.settings
-        position = np.asarray(position, dtype=np.float64)
+        position = finite_vector("position", position, 3, IKError)
+        yaw = finite("yaw", yaw, IKError)
+        seed = finite_vector("seed", seed, 6, IKError)
         t0 = time.perf_counter()
         reach = np.linalg.norm(position[:2] - layout.ARM_BASE[:2])
-        if reach > 0.95 or position[2] < -0.05:
+        if reach > 0.95:
             raise IKError(f"IK for {what} at {np.round(position, 4).tolist()} m: out of the "
                           f"arm's reach ({reach:.3f} m from the base axis, UR5e: 0.85 m)")
+        if position[2] < -0.05:
+            raise IKError(f"IK for {what} at {np.round(position, 4).tolist()} m: below the "
+                          f"table (z {position[2]:.3f} m; the lowest the tool goes is -0.05 m)")
         cfg = self.configuration
         cfg.update(np.asarray(seed, dtype=np.float64))
         target = mink.SE3.from_rotation_and_translation(

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from cell.errors import IKError
+from cell.robot._checks import finite_vector
 from cell.sim.arm import build_arm
 
 __all__ = ["ArmKinematics"]
@@ -53,7 +54,7 @@ class ArmKinematics:
     def pose(self, q: np.ndarray, frame: str = "tcp") -> np.ndarray:
         """``T_base_frame`` (4x4) at joint angles ``q`` (6,) rad."""
         fid = self._frame(frame)
-        pin.forwardKinematics(self.model, self.data, np.asarray(q, dtype=np.float64))
+        pin.forwardKinematics(self.model, self.data, finite_vector("q", q, 6, IKError))
         pin.updateFramePlacement(self.model, self.data, fid)
         return self.data.oMf[fid].homogeneous.copy()
 
@@ -61,7 +62,7 @@ class ArmKinematics:
         """Geometric Jacobian (6, 6) of ``frame`` at ``q``: rows (v, w) in base axes,
         linear velocity of the frame's origin (MuJoCo's ``mj_jacSite`` convention)."""
         fid = self._frame(frame)
-        q = np.asarray(q, dtype=np.float64)
+        q = finite_vector("q", q, 6, IKError)
         return pin.computeFrameJacobian(
             self.model, self.data, q, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         ).copy()
@@ -71,4 +72,5 @@ class ArmKinematics:
         inertia (armature) included, by pinocchio's RNEA (Featherstone, *Rigid Body
         Dynamics Algorithms*, 2008). Gravity is left out: the servos compensate it."""
         m, d = self._dyn_model, self._dyn_data
-        return pin.rnea(m, d, np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float))
+        return pin.rnea(m, d, finite_vector("q", q, 6, IKError), finite_vector("qd", qd, 6, IKError),
+                        finite_vector("qdd", qdd, 6, IKError))

@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -26,6 +27,7 @@ import numpy as np
 
 from cell.catalogue import KINDS
 from cell.errors import GraspError, IKError, MotionError
+from cell.robot._checks import finite
 from cell.robot.ik import ArmIK, tool_yaw
 from cell.robot.kinematics import ArmKinematics
 from cell.robot.motion import ArmDriver
@@ -67,6 +69,12 @@ def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float, *,
     lip segments; 0: a round cup), so the equivalent yaws are ``part_yaw`` plus the
     multiples of 2 pi / lcm(symmetry, tool_symmetry).
     """
+    part_yaw = finite("part_yaw", part_yaw, MotionError)
+    natural_yaw = finite("natural_yaw", natural_yaw, MotionError)
+    for name, order in (("symmetry", symmetry), ("tool_symmetry", tool_symmetry)):
+        if not isinstance(order, numbers.Integral) or isinstance(order, bool) or order < 0:
+            raise MotionError(f"argument {name!r}: expected a whole number >= 0 (0: continuous), "
+                              f"got {order!r}")
     if symmetry == 0 or tool_symmetry == 0:
         return float(natural_yaw)
     step = 2 * np.pi / math.lcm(symmetry, tool_symmetry)
@@ -90,6 +98,13 @@ class PartTarget:
     surface_z: float = layout.BELT_TOP
     vx: float = 0.0
     seen_at: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y", "yaw", "surface_z", "vx", "seen_at"):
+            try:
+                finite(name, getattr(self, name), MotionError)
+            except MotionError as exc:
+                raise MotionError(f"PartTarget ({self.kind!r}): {exc}") from None
 
     def at(self, t: float) -> PartTarget:
         """Where the part will be at time ``t`` (s) if it rides the belt at ``vx`` (m/s along

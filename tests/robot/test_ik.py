@@ -62,3 +62,33 @@ def test_tool_yaw_is_the_nearest_symmetric_equivalent(part_yaw, symmetry, tool, 
                                                       expected):
     got = choose_tool_yaw(part_yaw, symmetry, natural, tool_symmetry=tool)
     assert got == pytest.approx(expected)
+
+
+@pytest.mark.parametrize(("position", "yaw", "seed", "culprit"), [
+    ([np.nan, 0.0, 0.3], 0.0, HOME, "position"),
+    ([0.0, 0.45, 0.3], np.nan, HOME, "yaw"),
+    ([0.0, 0.45, 0.3], np.inf, HOME, "yaw"),
+    ([0.0, 0.45, 0.3], 0.0, np.full(6, np.nan), "seed"),
+    ([0.0, 0.45], 0.0, HOME, "position"),
+    ([0.0, 0.45, 0.3], 0.0, HOME[:5], "seed"),
+])
+def test_a_target_that_is_not_numbers_is_an_ik_error_naming_it(ik, position, yaw, seed, culprit):
+    # (a NaN target once came back as the seed, "solved"; a NaN seed as all-NaN joints)
+    with pytest.raises(IKError, match=f"argument '{culprit}'"):
+        ik.solve(np.array(position), yaw, np.asarray(seed))
+
+
+def test_a_target_below_the_table_says_so(ik):
+    with pytest.raises(IKError, match="below the table"):
+        ik.solve(np.array([0.0, 0.4, -0.5]), 0.0, HOME)
+
+
+@pytest.mark.parametrize(("args", "culprit"), [
+    ((np.nan, 4, 0.0), "part_yaw"), ((0.0, 4, np.inf), "natural_yaw"),
+    ((0.0, -2, 0.0), "symmetry"), ((0.0, 2.5, 0.0), "symmetry"),
+])
+def test_choose_tool_yaw_refuses_what_is_no_yaw_or_order(args, culprit):
+    from cell.errors import MotionError
+
+    with pytest.raises(MotionError, match=f"argument '{culprit}'"):
+        choose_tool_yaw(*args)

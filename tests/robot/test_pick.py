@@ -84,3 +84,14 @@ def test_unknown_kind_or_bin_is_an_error_listing_the_valid_ones(cell):
         skill.run(PartTarget("gear", 0.0, 0.45, 0.0, "metal"))
     with pytest.raises(IKError, match="valid: metal, plastic, reject"):
         skill.run(PartTarget("washer", 0.0, 0.45, 0.0, "glass"))
+
+
+@pytest.mark.parametrize("field", ["x", "y", "yaw", "surface_z", "vx", "seen_at"])
+def test_a_part_target_holds_finite_numbers(field):
+    # (a NaN target once planned NaN joints, and its IK answer seeded every later pick)
+    import dataclasses
+
+    good = PartTarget("washer", 0.0, 0.45, 0.3, "metal")
+    for bad in (np.nan, np.inf, "0.5", True):
+        with pytest.raises(MotionError, match=f"argument '{field}'"):
+            dataclasses.replace(good, **{field: bad})

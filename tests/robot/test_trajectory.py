@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -45,6 +47,20 @@ def test_duration_is_the_single_joint_bound_of_the_limiting_joint():
     assert plan_segment([1.0], [1.0], VMAX, AMAX).duration == 0.0
 
 
-def test_bad_limits_are_a_motion_error():
-    with pytest.raises(MotionError, match="limits must be positive"):
-        plan_segment([0.0], [1.0], 0.0, AMAX)
+@pytest.mark.parametrize(("vmax", "amax", "culprit"), [
+    (0.0, AMAX, "vmax"), (math.nan, AMAX, "vmax"), (math.inf, AMAX, "vmax"),
+    (VMAX, math.nan, "amax"), (VMAX, math.inf, "amax"), (VMAX, -1.0, "amax"),
+    ([1.0, 2.0], AMAX, "vmax"),
+])
+def test_bad_limits_are_a_motion_error_naming_them(vmax, amax, culprit):
+    # (a NaN or infinite limit once gave a zero-time jump or NaN set-points)
+    for plan in (plan_segment, min_time):
+        with pytest.raises(MotionError, match=f"argument '{culprit}'"):
+            plan([0.0], [1.0], vmax, amax)
+
+
+def test_bad_joints_and_times_are_a_motion_error():
+    with pytest.raises(MotionError, match="argument 'q1'"):
+        plan_segment([0.0], [math.nan], VMAX, AMAX)
+    with pytest.raises(MotionError, match="argument 't'"):
+        plan_segment([0.0], [1.0], VMAX, AMAX).sample(math.nan)

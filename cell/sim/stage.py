@@ -8,9 +8,10 @@ contact set again, parked back at its slot: its centre crossing the catch line p
 belt's end (``caught``), or its coming to rest inside a bin (``binned``, with the bin's
 name). So nothing piles up, the contact set holds only the parts still in play.
 
-The parts off stage sleep (MuJoCo's ``mjENBL_SLEEP``): a parked part, at rest, falls
-asleep after a few steps and costs the physics nearly nothing, so a step's cost follows the
-parts in play, not the run's length. A part in play never sleeps (its policy
+The parts off stage sleep (MuJoCo's ``mjENBL_SLEEP``) and collide with nothing (their
+collision bits zeroed, put back when they enter): a parked part, at rest, falls asleep
+after a few steps, leaves the collision broadphase and costs the physics nearly nothing,
+so a step's cost follows the parts in play, not the run's length. A part in play never sleeps (its policy
 ``mjSLEEP_NEVER``: a part at rest on a stopped belt must still ride off when the belt
 starts, which moves no body that could wake it). :meth:`Stage.place_of` says, for
 scoring, where a part ended.
@@ -65,19 +66,37 @@ class Stage:
         self.live = np.zeros(0, dtype=np.int64)
         self._part_of_body = {p.body_id: p.id for p in parts}
         self._steps = 0
+        self._geoms = {p.id: np.flatnonzero(model.geom_bodyid == p.body_id) for p in parts}
+        self._bits = {p.id: (model.geom_contype[self._geoms[p.id]].copy(),
+                             model.geom_conaffinity[self._geoms[p.id]].copy(),
+                             int(model.body_contype[p.body_id]),
+                             int(model.body_conaffinity[p.body_id])) for p in parts}
 
     def let_sleep(self) -> None:
         """Turn MuJoCo's sleeping on (once the model's poses are computed): the parts off
         stage, at rest, fall asleep after a few steps."""
+        live = set(self.live.tolist())
         for p in self.parts:
             self.model.tree_sleep_policy[self.model.body_treeid[p.body_id]] = _MAY_SLEEP
+            if p.body_id not in live:
+                self._collide(p, False)
         self.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
 
     def enter(self, part: PartInfo) -> None:
         """``part`` is now in play (spawned): awake, and kept awake."""
         tree = self.model.body_treeid[part.body_id]
         self.model.tree_sleep_policy[tree] = _NEVER_SLEEPS
+        self._collide(part, True)
         self.live = np.append(self.live, part.body_id)
+
+    def _collide(self, part: PartInfo, on: bool) -> None:
+        """Give ``part`` its collision bits back (``on``), or zero them (off stage)."""
+        geom_type, geom_affinity, body_type, body_affinity = self._bits[part.id]
+        geoms = self._geoms[part.id]
+        self.model.geom_contype[geoms] = geom_type if on else 0
+        self.model.geom_conaffinity[geoms] = geom_affinity if on else 0
+        self.model.body_contype[part.body_id] = body_type if on else 0
+        self.model.body_conaffinity[part.body_id] = body_affinity if on else 0
 
     def after_step(self) -> None:
         """After each physics step: park caught parts; every ``_BIN_CHECK_EVERY`` steps, the
@@ -127,6 +146,7 @@ class Stage:
         self.data.qacc_warmstart[dof : dof + 6] = 0
         self.model.body_gravcomp[part.body_id] = 1.0
         self.model.tree_sleep_policy[self.model.body_treeid[part.body_id]] = _MAY_SLEEP
+        self._collide(part, False)
 
     def place_of(self, part: PartInfo) -> str:
         """Where ``part`` (spawned) is: a bin's name (resting in it and parked, or inside it

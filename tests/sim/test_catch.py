@@ -65,17 +65,24 @@ def _asleep(world, part) -> bool:
 
 
 def test_parts_off_stage_sleep_and_parts_in_play_do_not(world_factory):
-    """Waiting and caught parts sleep (MuJoCo's sleeping): they cost the physics nearly
-    nothing, so a step's cost follows the parts in play, not the run's length. A part in
+    """Waiting and caught parts sleep (MuJoCo's sleeping) and collide with nothing: they
+    cost the physics nearly nothing, so a step's cost follows the parts in play, not the
+    run's length. A part in
     play stays awake, even at rest on a belt held still, and rides off when it runs again."""
     world = world_factory(parts={"count": 6, "spacing": 0.1},
                           conveyor={"speed": 0.5, "mode": "continuous"},
                           faults={"conveyor_stop": [0.2, 1.8]})  # the belt stands 0.2-2.0 s
+    m = world.model
+    bits = {p.id: (m.geom_contype[m.geom_bodyid == p.body_id].copy(), int(m.body_contype[p.body_id]))
+            for p in world.parts}  # (all waiting: zeroed)
     world.step(50)
     waiting = world.parts[world.spawned:]
     assert waiting and all(_asleep(world, p) for p in waiting)
+    assert all(not m.geom_contype[m.geom_bodyid == p.body_id].any() for p in waiting)
     first = world.parts[0]
     assert world.spawned >= 1 and not _asleep(world, first)
+    assert m.geom_contype[m.geom_bodyid == first.body_id].any() and m.body_contype[first.body_id]
+    assert not bits[first.id][0].any()  # it collides now, it did not while it waited
     assert world.data.nv_awake < world.model.nv
     while world.time < 1.95:  # at rest on the held belt for over a second...
         world.step(10)
@@ -90,3 +97,4 @@ def test_parts_off_stage_sleep_and_parts_in_play_do_not(world_factory):
             break
     world.step(50)
     assert world.is_caught(first.id) and _asleep(world, first)
+    assert not m.geom_contype[m.geom_bodyid == first.body_id].any()

@@ -30,6 +30,9 @@ def _pixels(label: str) -> int:
     return int(w) * int(h)
 
 
+_FEW = 0.5  # a cell of the position error map whose setting finds fewer parts is blank
+
+
 def build(rows: list[dict], plan) -> Report:
     rows = [r for r in done(rows) if r.get("job") == "detect"]
     if not rows:
@@ -42,7 +45,11 @@ def build(rows: list[dict], plan) -> Report:
     fig, axes = figure(2, 2, size=(11.0, 7.5))
     heatmap(axes[0, 0], found, bits, resolutions, title="parts found")
     heatmap(axes[0, 1], klass, bits, resolutions, title="classification accuracy (kind and material)")
-    heatmap(axes[1, 0], pos, bits, resolutions, title="position error, mean (mm)",
+    # an error averaged over the few parts found is no figure of the setting: left blank
+    shown = [[p if f is not None and f >= _FEW else None for p, f in zip(prow, frow, strict=True)]
+             for prow, frow in zip(pos, found, strict=True)]
+    heatmap(axes[1, 0], shown, bits, resolutions,
+            title=f"position error, mean (mm; blank: under {_FEW:.0%} of the parts found)",
             colours=dataclasses.replace(ERRORS, vmax=2.0))  # (one scale for every run: 0-2 mm)
     for ax in (axes[0, 0], axes[0, 1], axes[1, 0]):
         ax.set_xlabel("bits per channel")
@@ -58,9 +65,9 @@ def build(rows: list[dict], plan) -> Report:
     ax.set_ylabel(f"ms per frame ({full} bits), median")
     ax.set_title("detector latency (one thread, right after the render; this machine)", fontsize=9)
     ax.grid(alpha=0.3)
-    for x, res in zip(xs, resolutions, strict=True):
-        ax.annotate(res, (x, 0), textcoords="offset points", xytext=(0, 4), fontsize=7, ha="center",
-                    xycoords=("data", "axes fraction"))
+    for x, y, res in zip(xs, lat, resolutions, strict=True):  # each label at its point
+        if y is not None:
+            ax.annotate(res, (x, y), textcoords="offset points", xytext=(6, -10), fontsize=7)
     heads = []
     if full in bits:
         j = bits.index(full)

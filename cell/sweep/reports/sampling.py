@@ -30,7 +30,15 @@ def _pixels(label: str) -> int:
     return int(w) * int(h)
 
 
-_FEW = 0.5  # a cell of the position error map whose setting finds fewer parts is blank
+_FEW = 0.5  # a cell of the per-part maps whose setting finds fewer parts is blank
+
+
+def _where_found(values: list[list[float | None]], found: list[list[float | None]]
+                 ) -> list[list[float | None]]:
+    """``values`` with None where fewer than ``_FEW`` of the parts were found: a figure
+    averaged over the few parts found is no figure of the setting."""
+    return [[v if f is not None and f >= _FEW else None for v, f in zip(vrow, frow, strict=True)]
+            for vrow, frow in zip(values, found, strict=True)]
 
 
 def build(rows: list[dict], plan) -> Report:
@@ -44,11 +52,9 @@ def build(rows: list[dict], plan) -> Report:
     pos = matrix(rows, "position_error_mm_mean", resolutions, bits, _res, lambda r: r.get("sensor.bits"))
     fig, axes = figure(2, 2, size=(11.0, 7.5))
     heatmap(axes[0, 0], found, bits, resolutions, title="parts found")
-    heatmap(axes[0, 1], klass, bits, resolutions, title="classification accuracy (kind and material)")
-    # an error averaged over the few parts found is no figure of the setting: left blank
-    shown = [[p if f is not None and f >= _FEW else None for p, f in zip(prow, frow, strict=True)]
-             for prow, frow in zip(pos, found, strict=True)]
-    heatmap(axes[1, 0], shown, bits, resolutions,
+    heatmap(axes[0, 1], _where_found(klass, found), bits, resolutions,
+            title=f"classification accuracy (kind and material; blank: under {_FEW:.0%} found)")
+    heatmap(axes[1, 0], _where_found(pos, found), bits, resolutions,
             title=f"position error, mean (mm; blank: under {_FEW:.0%} of the parts found)",
             colours=dataclasses.replace(ERRORS, vmax=2.0))  # (one scale for every run: 0-2 mm)
     for ax in (axes[0, 0], axes[0, 1], axes[1, 0]):

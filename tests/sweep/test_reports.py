@@ -38,3 +38,13 @@ def test_the_generic_report_leads_with_a_metric_that_changes():
     rows = [{"lighting": li, "parts": 6, "found": found} for li, found in (("front", 6), ("dim", 4))]
     report = generic.overview(rows, ("lighting",), ("parts", "found"))
     assert report.headlines[0].startswith("found: highest 6 at lighting=front; lowest 4")
+
+
+def test_threshold_calls_a_method_that_finds_the_same_everywhere_so():
+    from cell.sweep.reports import threshold
+
+    rows = [{"job": "detect", "lighting": li, "vision.segmentation": "belt", "recall": 1.0,
+             "fg_iou": 0.9} for li in ("front", "back")]
+    heads = threshold.build(rows, None).headlines
+    assert "belt: finds 100% of the parts under each of the 2 presets" in heads
+    assert not any("worst under" in h for h in heads)

@@ -120,7 +120,10 @@ def build(rows: list[dict], plan) -> Report:
     for j, m in enumerate(methods):
         col = [recall[i][len(thresholds) + j] for i in range(len(presets))]
         known = [v for v in col if v is not None]
-        if known:
+        if known and f"{min(known):.0%}" == f"{max(known):.0%}":  # (as printed: no worst)
+            heads.append(f"{m}: finds {min(known):.0%} of the parts under each of the "
+                         f"{len(known)} presets")
+        elif known:
             worst = presets[col.index(min(known))]
             heads.append(f"{m}: finds {min(known):.0%} to {max(known):.0%} of the parts over the "
                          f"{len(known)} presets (worst under {worst})")

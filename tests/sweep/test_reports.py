@@ -48,3 +48,12 @@ def test_threshold_calls_a_method_that_finds_the_same_everywhere_so():
     heads = threshold.build(rows, None).headlines
     assert "belt: finds 100% of the parts under each of the 2 presets" in heads
     assert not any("worst under" in h for h in heads)
+
+
+def test_edges_on_one_setting_names_no_too_low_or_too_high():
+    from cell.sweep.reports import edges
+
+    row = {"job": "edges", "lighting": "front", "job.high": 100.0, "job.low_ratio": 0.4,
+           "outline_closed": 0.9, "clutter": 0.05}
+    heads = edges.build([row], None).headlines
+    assert not any("too low" in h for h in heads), heads

@@ -46,7 +46,7 @@ def build(rows: list[dict], plan) -> Report:
             heads.append(f"{li}: most outlines closed with at most {_CLUTTER:.0%} clutter at high "
                          f"{best[3]:g}, low {best[2] * best[3]:g} (x{best[2]:g}): {best[0]:.0%} closed, "
                          f"{best[1]:.0%} clutter")
-        if cells:
+        if len(cells) > 1:  # (the two ends of one setting are no range)
             most = max(cells, key=lambda c: c[0])
             low_end = min(cells, key=lambda c: c[3] * c[2])
             high_end = max(cells, key=lambda c: c[3] * c[2])

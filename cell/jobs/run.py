@@ -113,20 +113,17 @@ def _entry(path: Path) -> Path:
     return path.parent.resolve() / path.name
 
 
-def _rerun_disabled() -> bool:
-    from cell.replay import rerun_disabled  # (rerun loads only when a replay is asked for)
-
-    return rerun_disabled()
-
-
 def _outputs(args: argparse.Namespace) -> _Outputs:
     """The files this run will write, each checked (``check_output_file``), no two of them
     the same file nor the ``--calibration`` read; a ``JobError`` naming both otherwise."""
     report, replay = _option(args.report, "--report"), _option(args.replay, "--replay")
-    if replay is not None and _rerun_disabled():
-        raise JobError(f"--replay {printable(repr(args.replay))}: rerun logging is disabled "
-                       f"(RERUN={printable(os.environ['RERUN'])} in the environment): "
-                       "unset it to write a replay")
+    if replay is not None:
+        from cell.replay import rerun_disabled  # (rerun loads only when a replay is asked for)
+
+        if rerun_disabled():
+            raise JobError(f"--replay {printable(repr(args.replay))}: rerun logging is disabled "
+                           f"(RERUN={printable(os.environ['RERUN'])} in the environment): "
+                           "unset it to write a replay")
     calibration = image = None
     if report is not None and args.calibration is None:
         calibration = _beside(report, report.path.stem + ".calibration.json", "the calibration")

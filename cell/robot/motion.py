@@ -62,7 +62,7 @@ class ArmDriver:
         ctrl = self.data.ctrl
         ctrl[self._pos] = q
         ctrl[self._vel] = qd
-        ctrl[self._ff] = self.kin.feedforward_torque(q, qd, qdd)
+        ctrl[self._ff] = self.kin._feedforward(*(np.asarray(v, dtype=np.float64) for v in (q, qd, qdd)))
         self.q_cmd = np.array(q, dtype=np.float64)
         if self.log is not None:
             self.log.append((float(self.data.time), self.q_cmd, np.array(qd), np.array(qdd)))

@@ -11,9 +11,9 @@ name). So nothing piles up, the contact set holds only the parts still in play.
 The parts off stage sleep (MuJoCo's ``mjENBL_SLEEP``) and collide with nothing (their
 collision bits zeroed, put back when they enter): a parked part, at rest, falls asleep
 after a few steps, leaves the collision broadphase and costs the physics nearly nothing,
-so a step's cost follows the parts in play, not the run's length. A part in play never sleeps (its policy
-``mjSLEEP_NEVER``: a part at rest on a stopped belt must still ride off when the belt
-starts, which moves no body that could wake it). :meth:`Stage.place_of` says, for
+so a step's cost follows the parts in play, not the run's length. A part in play never
+sleeps (its policy ``mjSLEEP_NEVER``: a part at rest on a stopped belt must still ride off
+when the belt starts, which moves no body that could wake it). :meth:`Stage.place_of` says, for
 scoring, where a part ended.
 """
 

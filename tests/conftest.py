@@ -2,10 +2,29 @@
 
 from __future__ import annotations
 
+import cv2
 import pytest
 
 from cell.scenario import scenario_from_dict
 from cell.sim.world import World
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _no_rerun_switch():
+    """No ``RERUN`` from the caller's environment (``RERUN=off`` refuses replays): the
+    tests that want it set it themselves."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.delenv("RERUN", raising=False)
+        yield
+
+
+@pytest.fixture(autouse=True)
+def _opencv_threads_put_back():
+    """OpenCV's thread count put back after each test (the vision bench and a sweep run
+    in-process set it to one), so no test's result depends on which ran before it."""
+    threads = cv2.getNumThreads()
+    yield
+    cv2.setNumThreads(threads)
 
 
 def make_world(arm: bool = False, **sections) -> World:

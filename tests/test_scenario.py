@@ -169,13 +169,14 @@ def test_unreadable_file_is_a_scenario_error(tmp_path, monkeypatch):
 def test_a_fifo_or_device_is_refused_not_waited_on(tmp_path):
     fifo = tmp_path / "s.toml"
     os.mkfifo(fifo)
-    signal.signal(signal.SIGALRM, _too_slow)
+    before = signal.signal(signal.SIGALRM, _too_slow)
     signal.alarm(10)  # a blocking open() would wait for a writer forever
     try:
         with pytest.raises(ScenarioError, match=r"s\.toml: not a regular file"):
             load_scenario(fifo)
     finally:
         signal.alarm(0)
+        signal.signal(signal.SIGALRM, before)
     with pytest.raises(ScenarioError, match=r"^/dev/null: not a regular file"):
         load_scenario("/dev/null")
 

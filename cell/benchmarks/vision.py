@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 
 from cell.benchmarks import fmt, int_in
+from cell.calib.intrinsics import one_thread
 from cell.catalogue import KINDS, LIGHTING_PRESETS
 from cell.errors import BenchError
 from cell.options import Parser
@@ -222,10 +223,16 @@ def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int =
     if unknown or presets == []:
         raise BenchError(f"presets: unknown {unknown or 'none given'}; valid: "
                          f"{', '.join(LIGHTING_PRESETS)}")
+    with one_thread():  # (the latency is promised on one thread)
+        return _run(scenes, settings or VisionSettings(), seed_base, parts, presets)
+
+
+def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
+         presets: list[str] | None) -> dict:
+    """:func:`run` of checked arguments, OpenCV on one thread."""
     from cell.sim import World, layout
 
-    cv2.setNumThreads(1)
-    detector = PartDetector(settings or VisionSettings())
+    detector = PartDetector(settings)
     presets = [p for p in LIGHTING_PRESETS if p in presets] if presets else list(LIGHTING_PRESETS)
     stats = {
         p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0, "kind_ok": 0,

@@ -202,6 +202,12 @@ def test_a_bad_seed_names_the_seed_option(capsys, tmp_path, value):
     assert list(tmp_path.iterdir()) == []
 
 
+_UTF8_NAMES = pytest.mark.skipif(
+    sys.getfilesystemencoding().lower().replace("-", "") != "utf8",
+    reason="a byte that is no character exists only under a UTF-8 file system encoding")
+
+
+@_UTF8_NAMES
 def test_an_undecodable_out_path_is_printed_escaped(capsys, tmp_path):
     bad = os.fsdecode(b"bad\xff")  # an undecodable file name, as argv gives it
     (tmp_path / bad).write_text("x")
@@ -210,6 +216,7 @@ def test_an_undecodable_out_path_is_printed_escaped(capsys, tmp_path):
     assert_one_error_line(err, "bad\\udcff")
 
 
+@_UTF8_NAMES
 def test_an_out_path_that_is_not_utf8_is_written(tmp_path):
     # (a subprocess: before, cv2.imwrite crashed the process on such a path)
     out = os.path.join(os.fsencode(tmp_path), b"snap\xe9")
@@ -218,7 +225,7 @@ def test_an_out_path_that_is_not_utf8_is_written(tmp_path):
                         "--time", "0", "--out", out], capture_output=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
     assert {os.fsdecode(n) for n in os.listdir(out)} == DOCUMENTED
-    assert os.listdir(tmp_path) == [b"snap\xe9".decode("utf-8", "surrogateescape")]
+    assert os.listdir(tmp_path) == [os.fsdecode(b"snap\xe9")]
 
 
 def test_a_failed_swap_puts_the_earlier_output_back(capsys, tmp_path, monkeypatch):

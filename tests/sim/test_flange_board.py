@@ -250,11 +250,14 @@ def test_the_wrist_camera_sees_the_same_with_and_without_the_plate():
         for q in (HOME, READY):
             a.hold_arm(q)
             b.hold_arm(q)
-            # the ideal renders: at most one grey level apart (the plate changes the
-            # model's extent, hence the depth range, by a hair), nowhere the plate
+            # the ideal renders: nowhere the plate. The plate changes the model's extent,
+            # hence the depth range, by a hair: a grey level here and there (one on this
+            # renderer), and another GL may resolve an edge pixel's depth test otherwise;
+            # the plate in view would change thousands of pixels (over 1 % of the frame)
             x = a.rig("wrist").render_rgb(a.data).astype(int)
             y = b.rig("wrist").render_rgb(b.data).astype(int)
-            assert np.abs(x - y).max() <= 1
+            changed = np.abs(x - y).max(axis=2) > 2
+            assert changed.mean() < 1e-3, f"{changed.sum()} pixels differ by more than 2 levels"
     finally:
         a.close()
         b.close()

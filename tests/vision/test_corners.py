@@ -139,7 +139,6 @@ def test_corner_errors_name_the_argument():
 def test_harris_finds_each_vertex_of_a_rendered_l_bracket(finish, yaw):
     """Renders have no anti-aliasing: the staircase of a slanted edge gives weak
     responses, which a threshold of 10 % of the peak removes."""
-    pytest.importorskip("cell.sim")
     frame, world, part = box_scene.render_part("l_bracket", finish, "front", yaw=yaw)
     truth = frame.camera.project(box_scene.bracket_outline_vertices(world, part))
     world.close()

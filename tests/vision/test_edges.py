@@ -72,7 +72,6 @@ def test_edges_errors_name_the_argument():
 def test_canny_thresholds_on_a_rendered_bracket_in_dim_light():
     """Rendered steel L bracket under the ``dim`` preset (sensor gain noise). The
     outline's contrast is even all round, so a too-high threshold drops it whole."""
-    pytest.importorskip("cell.sim")
     frame, world, _ = box_scene.render_part("l_bracket", "steel", "dim", yaw=0.4)
     world.close()
     grey = cv2.GaussianBlur(cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY), (0, 0), 1.0)

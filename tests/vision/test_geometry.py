@@ -60,7 +60,7 @@ def test_pixel_to_table_round_trip_through_project_is_sub_mm():
 
 
 def test_pixel_to_table_with_the_simulators_camera():
-    sim = pytest.importorskip("cell.sim")
+    from cell import sim
     from cell.scenario import scenario_from_dict
 
     world = sim.World.build(scenario_from_dict({"seed": 1}), arm=False)

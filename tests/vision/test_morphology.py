@@ -89,9 +89,9 @@ def test_fill_holes():
 @pytest.mark.parametrize("method", ["distance", "erosion"])
 def test_touching_rendered_washers_are_separated(method):
     """Two steel washers placed touching, back-lit: one dark blob, two parts."""
-    sim = pytest.importorskip("cell.sim")
     import cv2
 
+    from cell import sim
     from cell.scenario import scenario_from_dict
     from cell.sim import layout
     from cell.vision.threshold import threshold_otsu
@@ -102,10 +102,13 @@ def test_touching_rendered_washers_are_separated(method):
     )
     world = sim.World.build(scenario, arm=False)
     world.place_next_part(-0.01, layout.CONVEYOR_Y, 0.0)
-    world.place_next_part(0.0103, layout.CONVEYOR_Y + 0.003, 0.0)
+    world.place_next_part(0.0097, layout.CONVEYOR_Y + 0.003, 0.0)  # 20 mm apart: touching
     world.step(150)
     frame = world.render("overhead", depth=False, seg=True)
     world.close()
+    a, b = (p.id for p in world.parts)
+    grown = cv2.dilate((frame.seg == a).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    assert (grown & (frame.seg == b)).any(), "the scene must really have touching washers"
     grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
     mask = grey <= threshold_otsu(grey)
     mask &= np.abs(np.arange(mask.shape[0])[:, None] - mask.shape[0] / 2) < 110  # belt only
@@ -113,8 +116,8 @@ def test_touching_rendered_washers_are_separated(method):
     labels = separate_touching(mask, method=method)
     assert labels.max() == 2
     for lab in (1, 2):  # each region is one washer (segmentation truth, scoring only)
-        ids = frame.seg[labels == lab]
-        assert np.bincount(ids).max() / len(ids) > 0.98
+        ids = frame.seg[labels == lab]  # (the cut may stray a pixel or two from the contact)
+        assert np.bincount(ids).max() / len(ids) > 0.95
 
 
 _M = np.zeros((64, 64), bool)

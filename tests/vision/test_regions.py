@@ -113,10 +113,19 @@ def test_region_grow_seed_criterion_is_a_flood_fill(criterion, connectivity):
     flood = np.zeros((42, 52), np.uint8)
     cv2.floodFill(img.copy(), flood, (25, 20), 0, 6, 6,
                   connectivity | cv2.FLOODFILL_FIXED_RANGE | cv2.FLOODFILL_MASK_ONLY | (1 << 8))
+    region = labels == 1
     if criterion == "seed":
-        assert np.array_equal(labels == 1, flood[1:-1, 1:-1] > 0)
-    else:
-        assert (labels == 1).sum() > 1
+        assert np.array_equal(region, flood[1:-1, 1:-1] > 0)
+        return
+    # the running mean: one connected region holding the seed, its growth
+    # stopped where every free pixel touching it is beyond tolerance of its final mean
+    count, _ = cv2.connectedComponents(region.astype(np.uint8), connectivity=connectivity)
+    assert region[20, 25] and count == 2 and region.sum() > 1
+    kernel = np.ones((3, 3), np.uint8) if connectivity == 8 else cv2.getStructuringElement(
+        cv2.MORPH_CROSS, (3, 3))
+    frontier = (cv2.dilate(region.astype(np.uint8), kernel) > 0) & ~region & (labels == 0)
+    mean = img[region].mean()
+    assert frontier.any() and (np.abs(img[frontier] - mean) > 6 - 1e-6).all()
 
 
 @pytest.mark.parametrize(("name", "value"), [

@@ -76,9 +76,9 @@ def test_worked_example():
 
 @pytest.fixture(scope="module")
 def rendered():
-    sim = pytest.importorskip("cell.sim")
     import cv2
 
+    from cell import sim
     from cell.scenario import scenario_from_dict
     from cell.sim import layout
 

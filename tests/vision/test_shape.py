@@ -103,7 +103,7 @@ def test_holes_count_every_enclosed_background_region():
 @pytest.fixture(scope="module")
 def rendered_silhouettes():
     """Back-lit overhead renders: two parts per kind, silhouettes by median + Otsu."""
-    sim = pytest.importorskip("cell.sim")
+    from cell import sim
     from cell.scenario import scenario_from_dict
     from cell.sim import layout
 

@@ -154,7 +154,6 @@ def _rendered_parts(kind, placements, lightings, seed):
 def test_two_template_decision_on_rendered_washer_and_disc():
     """Teach one washer and one disc (61 px templates cut at the part centre), then
     decide on windows around parts at other places, yaws and lightings."""
-    pytest.importorskip("cell.sim")
     from cell.sim import layout
 
     y0 = layout.CONVEYOR_Y

@@ -30,7 +30,10 @@ __all__ = ["PartInfo", "Stage", "offstage_slot"]
 
 _OFFSTAGE = np.array([3.0, 3.0, 1.5])  # where waiting parts float, out of every view
 _BIN_CHECK_EVERY = 50  # physics steps between looks for parts come to rest in a bin
-_AT_REST = 0.01  # m/s and rad/s: a part in a bin moving slower than this has come to rest
+# m/s: a part in a bin whose centre moves slower than this has come to rest. Its spin does
+# not count: a part on the pile may rock at up to 1 rad/s for a minute and more (contact
+# jitter) while going nowhere, and kept in play it would make every later step dearer
+_AT_REST = 0.01
 _MAY_SLEEP = mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED  # a part off stage
 _NEVER_SLEEPS = mujoco.mjtSleepPolicy.mjSLEEP_NEVER  # a part in play
 
@@ -119,7 +122,7 @@ class Stage:
 
     def _at_rest_in(self, centre: np.ndarray) -> np.ndarray:
         """Mask of the live parts at rest inside the bin at ``centre``."""
-        still = np.abs(self.data.cvel[self.live]).max(axis=1) < _AT_REST
+        still = np.abs(self.data.cvel[self.live, 3:]).max(axis=1) < _AT_REST  # (cvel: rot, lin)
         return still & _inside_bin(self.data.xpos[self.live], centre)
 
     def _take_out(self, mask: np.ndarray, *, into: str | None) -> None:

@@ -98,3 +98,20 @@ def test_parts_off_stage_sleep_and_parts_in_play_do_not(world_factory):
     world.step(50)
     assert world.is_caught(first.id) and _asleep(world, first)
     assert not m.geom_contype[m.geom_bodyid == first.body_id].any()
+
+
+def test_a_part_rocking_in_its_bin_is_at_rest(world_factory):
+    """A part on the pile in a bin may rock for a minute (contact jitter) while going
+    nowhere: it is parked all the same, or every later step pays for it."""
+    world = world_factory(parts={"count": 1, "kinds": ["bolt"]}, conveyor={"speed": 0.0})
+    part = world.place_next_part(*layout.BINS["plastic"][:2], 0.0)
+    jnt = world.model.body_jntadr[part.body_id]
+    dof = world.model.jnt_dofadr[jnt]
+    for _ in range(200):  # rocking about a horizontal axis at 0.5 rad/s, step after step
+        if world.place_of(part.id) == "plastic" and world.part_pose(part.id)[0][0] >= 3.0:
+            break
+        world.data.qvel[dof : dof + 3] = 0.0
+        world.data.qvel[dof + 3 : dof + 6] = [0.5, 0.0, 0.0]
+        world.step(1)
+    assert world.part_pose(part.id)[0][0] >= 3.0, "still in play"
+    assert world.place_of(part.id) == "plastic" and world.on_stage == []

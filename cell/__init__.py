@@ -9,10 +9,14 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from cell.errors import (  # noqa: E402
+    BenchError,
     CalibrationError,
     CellError,
+    GraspError,
     IKError,
+    JobError,
     MotionError,
+    RobotError,
     ScenarioError,
     SimError,
     VisionError,
@@ -21,10 +25,14 @@ from cell.errors import (  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
+    "BenchError",
     "CalibrationError",
     "CellError",
+    "GraspError",
     "IKError",
+    "JobError",
     "MotionError",
+    "RobotError",
     "ScenarioError",
     "SimError",
     "VisionError",

@@ -20,7 +20,7 @@ import threading
 from importlib.metadata import PackageNotFoundError, version
 
 from cell.config import escape as printable  # (one escaping rule for every message)
-from cell.errors import CellError
+from cell.errors import CellError, Terminated
 
 __all__ = ["COMMANDS", "main", "printable"]
 
@@ -46,11 +46,6 @@ def _usage() -> str:
     lines += [f"  {name:<10} {doc}" for name, (_, doc) in COMMANDS.items()]
     lines += ["", "Run 'cell COMMAND --help' for a command's options."]
     return "\n".join(lines)
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread so that a command unwinds as on Ctrl-C (its
-    temporary files removed, its workers stopped)."""
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -26,11 +26,17 @@ class CalibrationError(CellError):
     """Calibration data is missing, degenerate or inconsistent."""
 
 
-class IKError(CellError):
+class RobotError(CellError):
+    """The robot was asked something meaningless: a NaN or wrong-length joint vector, an
+    unknown frame, kind or bin (a caller's bug, not a pick's outcome). Base of the two
+    outcomes below."""
+
+
+class IKError(RobotError):
     """Inverse kinematics failed: target unreachable or solver did not converge."""
 
 
-class MotionError(CellError):
+class MotionError(RobotError):
     """A motion cannot be planned or executed (limits, grasp lost, timeout)."""
 
 
@@ -52,6 +58,13 @@ class JobError(CellError):
     """A job cannot run as asked (a detector that does not load, an unusable output path)."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread while a command runs (``cell.cli``), so that
+    the command unwinds as on Ctrl-C (its temporary files removed, its workers stopped)
+    and says ``terminated``. (Here, not in ``cell.cli``: ``python -m cell.cli`` loads that
+    module a second time as ``__main__``, with a class of its own.)"""
+
+
 __all__ = [
     "BenchError",
     "CalibrationError",
@@ -60,7 +73,9 @@ __all__ = [
     "IKError",
     "JobError",
     "MotionError",
+    "RobotError",
     "ScenarioError",
     "SimError",
+    "Terminated",
     "VisionError",
 ]

@@ -2,26 +2,101 @@
 
 ``atomic_write_bytes`` writes through a temporary file beside the target: written,
 flushed, fsynced, read back and checked, renamed over the target, the folder fsynced. A
-failure removes the temporary file and leaves the target as it was. ``check_output_file``
+failure removes the temporary file and leaves the target as it was. ``StagedFiles`` does
+the same for several files that belong together: all are written before the first is
+renamed, and the renames run with Ctrl-C and SIGTERM held off (``signals_held``), so a
+failure or a signal leaves every target as it was, or none. ``check_output_file``
 refuses, before any work is done, a path that cannot become a file.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import stat
 import tempfile
+import threading
 import tomllib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from cell.config import escape
 from cell.errors import CellError
 
-__all__ = ["MAX_TOML_BYTES", "atomic_write_bytes", "atomic_write_text", "check_output_file",
-           "file_mode", "input_path", "read_input_bytes", "read_toml_file"]
+__all__ = ["MAX_TOML_BYTES", "StagedFiles", "atomic_write_bytes", "atomic_write_text",
+           "check_output_file", "file_mode", "input_path", "read_input_bytes", "read_toml_file",
+           "signals_held"]
 
 MAX_TOML_BYTES = 1 << 20  # a scenario or sweep file is a page of TOML; more is a wrong file
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM off meanwhile: one that arrives is delivered, to the handler
+    it would have reached, when the block ends. For the few renames that must all happen
+    or none. (Off the main thread, where no handler can be changed: nothing is held.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    before = {s: signal.signal(s, lambda signum, _frame: caught.append(signum))
+              for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
+        if caught:
+            signal.raise_signal(caught[0])
+
+
+class StagedFiles:
+    """Files that are written together, whole or not at all (module docstring).
+
+    :meth:`add` writes each to a temporary file beside its target and checks it;
+    :meth:`commit` renames them all into place (``also``, a callable, runs last, still
+    with the signals held: a recording's own rename, say); :meth:`discard` removes what
+    was staged and not committed. Use it as a context manager: leaving the block
+    discards."""
+
+    def __init__(self) -> None:
+        self._staged: list[tuple[str, Path, str]] = []  # (temporary file, target, kind)
+
+    def __enter__(self) -> StagedFiles:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.discard()
+
+    def add(self, path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,
+            kind: str = "file", error: type[CellError] = CellError) -> None:
+        """Stage ``data`` for ``path`` (options as :func:`atomic_write_bytes`)."""
+        path = Path(path)
+        self._staged.append((_staged(path, data, check=check, kind=kind, error=error), path, kind))
+
+    def commit(self, *, also: Callable[[], None] | None = None,
+               error: type[CellError] = CellError) -> None:
+        """Rename every staged file into place, then run ``also``; signals held meanwhile."""
+        with signals_held():
+            for tmp, path, kind in self._staged:
+                try:
+                    os.replace(tmp, path)
+                except OSError as exc:
+                    raise error(f"cannot write {kind} {escape(repr(str(path)))}: "
+                                f"{escape(exc.strerror or str(exc))}") from None
+            if also is not None:
+                also()
+        for folder in {path.parent if str(path.parent) else Path(".") for _, path, _ in self._staged}:
+            _fsync_dir(folder)
+        self._staged = []
+
+    def discard(self) -> None:
+        """Remove the staged files not yet renamed into place."""
+        for tmp, *_ in self._staged:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        self._staged = []
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,
@@ -30,6 +105,22 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], 
     path)`` may raise to refuse what was written. Failures raise ``error`` naming ``kind``
     and the path."""
     path = Path(path)
+    tmp = _staged(path, data, check=check, kind=kind, error=error)
+    try:
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise error(f"cannot write {kind} {escape(repr(str(path)))}: "
+                    f"{escape(exc.strerror or str(exc))}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    _fsync_dir(path.parent if str(path.parent) else Path("."))
+
+
+def _staged(path: Path, data: bytes, *, check: Callable[[str], None] | None, kind: str,
+            error: type[CellError]) -> str:
+    """A temporary file beside ``path`` holding ``data``: written, fsynced, read back and
+    checked (``check``); its name. On failure none is left and ``error`` is raised."""
     shown = escape(repr(str(path)))
     folder = path.parent if str(path.parent) else Path(".")
     try:
@@ -46,13 +137,13 @@ def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], 
             raise error(f"{kind} {shown}: the written file reads back differently")
         if check is not None:
             check(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
-    finally:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
-    _fsync_dir(folder)
+        if isinstance(exc, OSError):
+            raise error(f"cannot write {kind} {shown}: {escape(exc.strerror or str(exc))}") from None
+        raise
+    return tmp
 
 
 def file_mode() -> int:

@@ -1,13 +1,15 @@
-"""Checking output paths before a run, and reading input files without blocking."""
+"""Checking output paths before a run, writing several files all or none, and reading
+input files without blocking."""
 
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
 from cell.errors import CellError
-from cell.files import check_output_file, read_input_bytes
+from cell.files import StagedFiles, check_output_file, read_input_bytes, signals_held
 
 
 def test_an_output_path_must_be_able_to_become_a_regular_file(tmp_path):
@@ -41,3 +43,51 @@ def test_input_bytes_come_from_regular_files_only(tmp_path):
                          (tmp_path / "missing", "no such scenario file")]:
         with pytest.raises(CellError, match=needle):
             read_input_bytes(path, "x", kind="scenario file", limit=10, error=CellError)
+
+
+def test_signals_held_delivers_a_signal_after_the_block(tmp_path):
+    done = []
+    with pytest.raises(KeyboardInterrupt), signals_held():
+        os.kill(os.getpid(), signal.SIGINT)
+        done.append("after the signal, still inside")
+    assert done == ["after the signal, still inside"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+
+
+def _old_files(tmp_path):
+    for name in ("a.json", "b.png"):
+        (tmp_path / name).write_text("old")
+
+
+def test_staged_files_that_fail_leave_every_target_as_it_was(tmp_path):
+    _old_files(tmp_path)
+
+    def refuse(_tmp):
+        raise CellError("refused")
+
+    with pytest.raises(CellError, match="refused"), StagedFiles() as files:
+        files.add(tmp_path / "a.json", b"new")
+        files.add(tmp_path / "b.png", b"new", check=refuse)
+        files.commit()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "b.png"]  # no temporaries
+    assert {p.read_text() for p in tmp_path.iterdir()} == {"old"}
+
+
+def test_staged_files_interrupted_between_the_renames_are_all_renamed(tmp_path, monkeypatch):
+    _old_files(tmp_path)
+    real_replace, renamed = os.replace, []
+
+    def replace(src, dst):  # Ctrl-C arrives right after the first rename
+        real_replace(src, dst)
+        renamed.append(os.path.basename(dst))
+        if len(renamed) == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt), StagedFiles() as files:
+        files.add(tmp_path / "a.json", b"new")
+        files.add(tmp_path / "b.png", b"new")
+        files.commit()
+    assert renamed == ["a.json", "b.png"]  # the signal waited for the last one
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "b.png"]
+    assert {p.read_text() for p in tmp_path.iterdir()} == {"new"}

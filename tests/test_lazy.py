@@ -8,7 +8,8 @@ import sys
 
 import pytest
 
-PACKAGES = ("cell.calib", "cell.jobs", "cell.robot", "cell.sweep", "cell.vision", "cell.vision.steps")
+PACKAGES = ("cell.calib", "cell.jobs", "cell.robot", "cell.sim", "cell.sweep", "cell.vision",
+            "cell.vision.steps")
 
 
 @pytest.mark.parametrize("name", PACKAGES)
@@ -21,8 +22,10 @@ def test_every_name_resolves_and_dir_lists_them(name):
 
 
 def test_importing_a_package_imports_none_of_its_modules():
-    code = ("import sys, cell.vision, cell.robot, cell.calib, cell.jobs, cell.sweep; "
+    code = ("import sys, cell.vision, cell.robot, cell.calib, cell.jobs, cell.sweep, cell.sim; "
+            "from cell.sim import layout; import cell.jobs.policy; "
             "print(sorted(m for m in ('cell.vision.detector', 'cell.robot.pick', 'cell.calib.job', "
-            "'cell.jobs.sort', 'cell.sweep.runner', 'mujoco', 'cv2') if m in sys.modules))")
+            "'cell.jobs.sort', 'cell.sweep.runner', 'cell.sim.world', 'mujoco', 'cv2') "
+            "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -83,11 +83,15 @@ class BoardView:
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
+    """The grey image of a uint8 (H, W) or (H, W, 3) RGB one; anything else is refused."""
+    ok = (isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.size > 0
+          and (image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 3)))
+    if not ok:
+        got = (f"{image.dtype} {image.shape}" if isinstance(image, np.ndarray)
+               else type(image).__name__)
+        raise CalibrationError(f"detect_board: expected a uint8 (H, W) or (H, W, 3) image, got {got}")
     if image.ndim == 3:
         return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_RGB2GRAY)
-    if image.ndim != 2:
-        raise CalibrationError(f"detect_board: expected an (H, W) or (H, W, 3) image, got shape "
-                               f"{image.shape}")
     return np.ascontiguousarray(image)
 
 

@@ -27,7 +27,6 @@ back and checked, and only then renamed over the target, so a reader never sees 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,10 +34,10 @@ import numpy as np
 
 from cell.camera import CameraModel, check_camera_fields, read_json_file
 from cell.errors import CalibrationError
-from cell.files import atomic_write_bytes
+from cell.files import StagedFiles
 
-__all__ = ["SCHEMA", "VERSION", "CalibrationFile", "CameraCalibration", "atomic_write_text",
-           "calibration_from_dict", "load_calibration", "write_calibration"]
+__all__ = ["SCHEMA", "VERSION", "CalibrationFile", "CameraCalibration",
+           "calibration_from_dict", "load_calibration", "stage_calibration", "write_calibration"]
 
 SCHEMA = "cell.calibration"
 VERSION = 1
@@ -234,6 +233,14 @@ def load_calibration(path: str | Path) -> CalibrationFile:
 def write_calibration(path: str | Path, calibration: CalibrationFile) -> None:
     """Write ``calibration`` to ``path`` atomically: a temporary file in the same folder,
     flushed and fsynced, read back and checked, then renamed over ``path``."""
+    with StagedFiles() as files:
+        stage_calibration(files, path, calibration)
+        files.commit(error=CalibrationError)
+
+
+def stage_calibration(files: StagedFiles, path: str | Path, calibration: CalibrationFile) -> None:
+    """Stage ``calibration`` for ``path`` among ``files`` (written by their commit, with
+    the files that belong with it), read back and checked as :func:`write_calibration`."""
     text = json.dumps(calibration.to_dict(), indent=2, allow_nan=False) + "\n"
 
     def check(tmp: str) -> None:
@@ -241,12 +248,5 @@ def write_calibration(path: str | Path, calibration: CalibrationFile) -> None:
             raise CalibrationError(f"calibration file {str(path)!r}: the written file reads back "
                                    "differently")
 
-    atomic_write_text(path, text, check=check, kind="calibration file")
-
-
-def atomic_write_text(path: str | Path, text: str, *, check: Callable[[str], None] | None = None,
-                      kind: str = "file") -> None:
-    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`cell.files.atomic_write_bytes`);
-    a failure is a ``CalibrationError`` naming ``kind`` and the path, and leaves ``path``
-    as it was."""
-    atomic_write_bytes(path, text.encode("utf-8"), check=check, kind=kind, error=CalibrationError)
+    files.add(path, text.encode("utf-8"), check=check, kind="calibration file",
+              error=CalibrationError)

@@ -20,12 +20,12 @@ import json
 import sys
 from pathlib import Path
 
-from cell.calib.calfile import atomic_write_text, write_calibration
+from cell.calib.calfile import stage_calibration
 from cell.calib.job import CAMERAS, run_calibration
 from cell.calib.report import format_camera
 from cell.cli import printable
 from cell.errors import CalibrationError
-from cell.files import check_output_file
+from cell.files import StagedFiles, check_output_file
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario, scenario_from_dict
 
@@ -93,9 +93,12 @@ def main(argv: list[str]) -> int:
     run = run_calibration(scenario, camera=args.camera, progress=_progress(sys.stderr),
                           touch=not args.no_touch)
     report_text = json.dumps(run.report, indent=2, allow_nan=False) + "\n"  # (made before a write)
-    write_calibration(out, run.calibration)
-    if report_path is not None:
-        atomic_write_text(report_path, report_text, kind="report file")
+    with StagedFiles() as files:  # both files, or neither
+        stage_calibration(files, out, run.calibration)
+        if report_path is not None:
+            files.add(report_path, report_text.encode("utf-8"), kind="report file",
+                      error=CalibrationError)
+        files.commit(error=CalibrationError)
     print(f"scenario {printable(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
           f"joint noise {scenario.calibration.joint_noise_deg:g} deg")
     for k, (name, camera_report) in enumerate(run.report["cameras"].items()):

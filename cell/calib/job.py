@@ -77,7 +77,7 @@ def _world_base() -> np.ndarray:
     return make_transform(np.eye(3), ARM_BASE)
 
 
-def wrist_truth(world: object) -> CameraTruth:
+def _wrist_truth(world: object) -> CameraTruth:
     """GROUND TRUTH of the wrist camera from the simulator, for scoring only: its true
     intrinsics, distortion and mount (the flange site's pose and the camera's, now)."""
     import mujoco
@@ -90,7 +90,7 @@ def wrist_truth(world: object) -> CameraTruth:
                        invert(T_world_flange) @ model.T_world_camera)
 
 
-def overhead_truth(world: object) -> CameraTruth:
+def _overhead_truth(world: object) -> CameraTruth:
     """GROUND TRUTH of the overhead camera from the simulator, for scoring only: its true
     intrinsics, distortion and pose in the base frame."""
     model = world.camera_model("overhead")
@@ -115,7 +115,7 @@ def _run_wrist(scenario: object, *, progress: Progress | None, touch: bool) -> t
         rig = Rig(world, joint_noise=np.radians(settings.joint_noise_deg), rng=rng)
         result = calibrate_wrist(rig, settings, scenario=scenario.name, seed=scenario.seed,
                                  progress=progress)
-        truth = wrist_truth(world)
+        truth = _wrist_truth(world)
         touched = None
         if touch:
             touched = touch_test(rig, Board.from_settings(settings), result.camera,
@@ -173,7 +173,7 @@ def _run_overhead(scenario: object, *, progress: Progress | None, touch: bool) -
         rig = Rig(world, joint_noise=np.radians(settings.joint_noise_deg), rng=rng)
         result = calibrate_overhead(rig, settings, lens=scenario.camera, scenario=scenario.name,
                                     seed=scenario.seed, progress=progress)
-        truth = overhead_truth(world)
+        truth = _overhead_truth(world)
         touched = None
         if touch:
             ids = _place_touch_parts(world, rng)

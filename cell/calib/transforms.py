@@ -17,7 +17,6 @@ __all__ = [
     "pose_error",
     "project_to_rotation",
     "rotation_angle",
-    "rvec_of",
     "transform_from_rvec",
 ]
 
@@ -46,12 +45,6 @@ def transform_from_rvec(rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
     """The 4x4 transform of an OpenCV axis-angle ``rvec`` (3,) rad and ``tvec`` (3,) m."""
     R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3, 1))
     return make_transform(R, tvec)
-
-
-def rvec_of(R: np.ndarray) -> np.ndarray:
-    """The axis-angle vector (3,) rad of rotation ``R`` (3x3)."""
-    rvec, _ = cv2.Rodrigues(np.ascontiguousarray(R, dtype=np.float64))
-    return rvec.reshape(3)
 
 
 def rotation_angle(R: np.ndarray) -> float:

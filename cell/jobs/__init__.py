@@ -18,6 +18,7 @@ _WHERE = {
     "overhead_model": "sort",
     "Capture": "eye",
     "Eye": "eye",
+    "merge_materials": "eye",
     "PickRecord": "score",
     "Scorekeeper": "score",
     "choose_bin": "policy",

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from cell.cli import printable
 from cell.errors import JobError
-from cell.files import atomic_write_bytes, atomic_write_text, check_output_file
+from cell.files import StagedFiles, check_output_file
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario
 
@@ -192,8 +192,9 @@ def main(argv: list[str]) -> int:
 
 
 def _write(run: object, args: argparse.Namespace, scenario: Scenario, outputs: _Outputs) -> list[Path]:
-    """Write the run's files (each atomically), every one made before the first is
-    written and the recording committed last; the paths written, in order."""
+    """Write the run's files, all or none (:class:`cell.files.StagedFiles`): every one
+    staged beside its target and checked, then all renamed into place, the recording
+    last, with Ctrl-C and SIGTERM held off; the paths written, in order."""
     report = run.report
     report["scenario_file"] = args.scenario
     report["calibration"]["file"] = (str(outputs.calibration.path) if outputs.calibration
@@ -201,20 +202,21 @@ def _write(run: object, args: argparse.Namespace, scenario: Scenario, outputs: _
     text = json.dumps(report, indent=2, allow_nan=False) + "\n"
     image = _detections_png(run, scenario) if outputs.image else None
     written = []
-    if outputs.calibration is not None:
-        from cell.calib.calfile import write_calibration
+    with StagedFiles() as files:
+        if outputs.calibration is not None:
+            from cell.calib.calfile import stage_calibration
 
-        write_calibration(outputs.calibration.path, run.calibration)
-        written.append(outputs.calibration.path)
-    if outputs.report is not None:
-        atomic_write_text(outputs.report.path, text, kind="report", error=JobError)
-        written.append(outputs.report.path)
-    if image is not None:
-        atomic_write_bytes(outputs.image.path, image, kind="image", error=JobError)
-        written.append(outputs.image.path)
-    if run.replay is not None:
-        run.replay.commit()
-        written.append(outputs.replay.path)
+            stage_calibration(files, outputs.calibration.path, run.calibration)
+            written.append(outputs.calibration.path)
+        if outputs.report is not None:
+            files.add(outputs.report.path, text.encode("utf-8"), kind="report", error=JobError)
+            written.append(outputs.report.path)
+        if image is not None:
+            files.add(outputs.image.path, image, kind="image", error=JobError)
+            written.append(outputs.image.path)
+        if run.replay is not None:
+            written.append(outputs.replay.path)
+        files.commit(also=run.replay.commit if run.replay is not None else None, error=JobError)
     return written
 
 

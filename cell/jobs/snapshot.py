@@ -35,7 +35,8 @@ import cv2
 import numpy as np
 
 from cell.cli import printable
-from cell.errors import CellError, SimError
+from cell.errors import JobError, SimError
+from cell.files import signals_held
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario
 from cell.sim.world import World
@@ -103,7 +104,7 @@ def _reason(exc: OSError) -> str:
 
 
 def _check_out(arg: str) -> Path:
-    """The folder ``--out`` names, resolved; a ``CellError`` if it cannot take a snapshot.
+    """The folder ``--out`` names, resolved; a ``JobError`` if it cannot take a snapshot.
 
     Checked before the run so a bad path fails at once: not empty, not the current folder
     (or one above it), an existing entry must be a folder holding only snapshot outputs,
@@ -111,14 +112,14 @@ def _check_out(arg: str) -> Path:
     """
     shown = f"--out {arg!r}"
     if not arg:
-        raise CellError(f"{shown}: empty path; name the output folder")
+        raise JobError(f"{shown}: empty path; name the output folder")
     try:
         cwd = Path.cwd()
         target = Path(os.path.abspath(arg))
         resolved = target.resolve()  # follow links: the folder a link points to is the one replaced
         for path in (target, resolved):
             if path == cwd or path in cwd.parents:
-                raise CellError(f"{shown}: is the current folder or holds it; name a folder inside it")
+                raise JobError(f"{shown}: is the current folder or holds it; name a folder inside it")
         target = probe = resolved
         while True:
             try:
@@ -127,30 +128,30 @@ def _check_out(arg: str) -> Path:
             except FileNotFoundError:
                 probe = probe.parent
     except OSError as exc:  # a name too long, a loop of links, no permission to look
-        raise CellError(f"{shown}: cannot be used: {_reason(exc)}") from None
+        raise JobError(f"{shown}: cannot be used: {_reason(exc)}") from None
     except (RuntimeError, ValueError) as exc:  # a loop of links (Python < 3.13), a NUL character
-        raise CellError(f"{shown}: cannot be used: {exc}") from None
+        raise JobError(f"{shown}: cannot be used: {exc}") from None
     if not stat.S_ISDIR(st.st_mode):
         if probe == target:
-            raise CellError(f"{shown}: exists and is not a folder")
-        raise CellError(f"{shown}: cannot be created: {str(probe)!r} is not a folder")
+            raise JobError(f"{shown}: exists and is not a folder")
+        raise JobError(f"{shown}: cannot be created: {str(probe)!r} is not a folder")
     if probe == target:
         if target == Path(target.anchor):
-            raise CellError(f"{shown}: is a file system root; name a folder inside it")
+            raise JobError(f"{shown}: is a file system root; name a folder inside it")
         try:
             foreign = sorted(name for name in os.listdir(target) if name not in OUTPUTS)
         except OSError as exc:
-            raise CellError(f"{shown}: cannot be read: {_reason(exc)}") from None
+            raise JobError(f"{shown}: cannot be read: {_reason(exc)}") from None
         if foreign:
             listed = ", ".join(repr(n) for n in foreign[:3]) + (", ..." if len(foreign) > 3 else "")
-            raise CellError(f"{shown}: holds entries that are not snapshot outputs ({listed}); "
+            raise JobError(f"{shown}: holds entries that are not snapshot outputs ({listed}); "
                             "name a new folder, or one written only by cell snapshot")
         need = [target, target.parent]
     else:
         need = [probe]
     for folder in need:
         if not os.access(folder, os.W_OK | os.X_OK):
-            raise CellError(f"{shown}: cannot be written: no write permission in {str(folder)!r}")
+            raise JobError(f"{shown}: cannot be written: no write permission in {str(folder)!r}")
     return target
 
 
@@ -174,7 +175,7 @@ class _OutputSet:
             self.staging = self._new_folder("tmp")
         except OSError as exc:
             self.discard()
-            raise CellError(f"--out {arg!r}: cannot be created: {_reason(exc)}") from None
+            raise JobError(f"--out {arg!r}: cannot be created: {_reason(exc)}") from None
 
     def _new_folder(self, tag: str) -> Path:
         """A new empty folder ``<target name>.<tag>-XXXXXXXX`` beside the target."""
@@ -188,7 +189,7 @@ class _OutputSet:
                 continue
 
     def write(self, name: str, writer: Callable[[Path], object]) -> None:
-        """Run ``writer(path)`` for ``name`` in the staging folder; any failure is a ``CellError``.
+        """Run ``writer(path)`` for ``name`` in the staging folder; any failure is a ``JobError``.
 
         A writer that returns ``False`` (as an image encoder does) has failed.
         """
@@ -196,17 +197,24 @@ class _OutputSet:
         try:
             ok = writer(self.staging / name)
         except OSError as exc:
-            raise CellError(f"cannot write {shown}: {_reason(exc)}") from None
+            raise JobError(f"cannot write {shown}: {_reason(exc)}") from None
         except ValueError as exc:  # json.dumps(allow_nan=False) and friends
-            raise CellError(f"cannot write {shown}: {exc}") from None
+            raise JobError(f"cannot write {shown}: {exc}") from None
         except cv2.error as exc:
-            raise CellError(f"cannot write {shown}: OpenCV: {str(exc).strip().splitlines()[-1]}") from None
+            raise JobError(f"cannot write {shown}: OpenCV: {str(exc).strip().splitlines()[-1]}") from None
         if ok is False:
-            raise CellError(f"cannot write {shown}: the image encoder failed")
+            raise JobError(f"cannot write {shown}: the image encoder failed")
         self.written.append(name)
 
     def commit(self) -> None:
-        """Swap the staged set into place; the earlier folder, if any, is removed after."""
+        """Swap the staged set into place; the earlier folder, if any, is removed after.
+        Ctrl-C and SIGTERM are held off meanwhile (:func:`cell.files.signals_held`): the
+        swap happens whole, the earlier folder gone, before one takes effect."""
+        with signals_held():
+            self._swap()
+
+    def _swap(self) -> None:
+        """:meth:`commit`, its signals held."""
         target, aside = self.target, None
         _check_out(self.arg)  # again: the folder may have changed while the world ran
         try:
@@ -220,14 +228,14 @@ class _OutputSet:
                     try:
                         os.rename(aside, target)
                     except OSError:
-                        raise CellError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}; "
+                        raise JobError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}; "
                                         f"the earlier output is now in {str(aside)!r}") from None
                     aside = None
                 raise
         except OSError as exc:
             if aside is not None and aside.exists() and not any(aside.iterdir()):
                 aside.rmdir()
-            raise CellError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}") from None
+            raise JobError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}") from None
         self.staging, self.created = None, []
         if aside is not None:
             shutil.rmtree(aside, ignore_errors=True)

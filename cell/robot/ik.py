@@ -25,7 +25,7 @@ import mink
 import mujoco
 import numpy as np
 
-from cell.errors import IKError
+from cell.errors import IKError, RobotError
 from cell.robot._checks import finite, finite_vector
 from cell.robot.settings import RobotSettings
 from cell.sim import layout
@@ -82,7 +82,7 @@ class ArmIK:
         m = self.model
         self._qadr = np.array([m.joint(_PREFIX + n).qposadr[0] for n in JOINT_NAMES])
         if not np.array_equal(self._qadr, np.arange(6)) or m.nq != 6:
-            raise IKError("IK model: expected the arm's 6 joints as the only coordinates")
+            raise RobotError("IK model: expected the arm's 6 joints as the only coordinates")
         self.configuration = mink.Configuration(m)
         self.task = mink.FrameTask(_PREFIX + "tcp", "site", position_cost=1.0,
                                    orientation_cost=0.5, lm_damping=1e-6)
@@ -151,9 +151,9 @@ class ArmIK:
         the tolerance in ``ik_max_iterations`` (unreachable, or blocked by the limits).
         """
         s = self.settings
-        position = finite_vector("position", position, 3, IKError)
-        yaw = finite("yaw", yaw, IKError)
-        seed = finite_vector("seed", seed, 6, IKError)
+        position = finite_vector("position", position, 3, RobotError)
+        yaw = finite("yaw", yaw, RobotError)
+        seed = finite_vector("seed", seed, 6, RobotError)
         t0 = time.perf_counter()
         reach = np.linalg.norm(position[:2] - layout.ARM_BASE[:2])
         if reach > 0.95:

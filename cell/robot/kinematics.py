@@ -15,7 +15,7 @@ import tempfile
 import numpy as np
 import pinocchio as pin
 
-from cell.errors import IKError
+from cell.errors import RobotError
 from cell.robot._checks import finite_vector
 from cell.sim.arm import build_arm
 
@@ -47,14 +47,14 @@ class ArmKinematics:
         if name not in self._frames:
             if not self.model.existFrame(name):
                 valid = "tcp, flange"
-                raise IKError(f"unknown arm frame {name!r}; valid: {valid}")
+                raise RobotError(f"unknown arm frame {name!r}; valid: {valid}")
             self._frames[name] = self.model.getFrameId(name)
         return self._frames[name]
 
     def pose(self, q: np.ndarray, frame: str = "tcp") -> np.ndarray:
         """``T_base_frame`` (4x4) at joint angles ``q`` (6,) rad."""
         fid = self._frame(frame)
-        pin.forwardKinematics(self.model, self.data, finite_vector("q", q, 6, IKError))
+        pin.forwardKinematics(self.model, self.data, finite_vector("q", q, 6, RobotError))
         pin.updateFramePlacement(self.model, self.data, fid)
         return self.data.oMf[fid].homogeneous.copy()
 
@@ -62,7 +62,7 @@ class ArmKinematics:
         """Geometric Jacobian (6, 6) of ``frame`` at ``q``: rows (v, w) in base axes,
         linear velocity of the frame's origin (MuJoCo's ``mj_jacSite`` convention)."""
         fid = self._frame(frame)
-        q = finite_vector("q", q, 6, IKError)
+        q = finite_vector("q", q, 6, RobotError)
         return pin.computeFrameJacobian(
             self.model, self.data, q, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         ).copy()
@@ -71,8 +71,8 @@ class ArmKinematics:
         """Inverse dynamics without gravity (N m): ``M(q) qdd + C(q, qd) qd``, rotor
         inertia (armature) included, by pinocchio's RNEA (Featherstone, *Rigid Body
         Dynamics Algorithms*, 2008). Gravity is left out: the servos compensate it."""
-        return self._feedforward(finite_vector("q", q, 6, IKError), finite_vector("qd", qd, 6, IKError),
-                                 finite_vector("qdd", qdd, 6, IKError))
+        return self._feedforward(finite_vector("q", q, 6, RobotError), finite_vector("qd", qd, 6, RobotError),
+                                 finite_vector("qdd", qdd, 6, RobotError))
 
     def _feedforward(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """:meth:`feedforward_torque` of checked (6,) float64 vectors: the servo loop's call,

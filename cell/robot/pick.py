@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from cell.catalogue import KINDS
-from cell.errors import GraspError, IKError, MotionError
+from cell.errors import GraspError, MotionError, RobotError
 from cell.robot._checks import finite
 from cell.robot.ik import ArmIK, tool_yaw
 from cell.robot.kinematics import ArmKinematics
@@ -69,11 +69,11 @@ def choose_tool_yaw(part_yaw: float, symmetry: int, natural_yaw: float, *,
     lip segments; 0: a round cup), so the equivalent yaws are ``part_yaw`` plus the
     multiples of 2 pi / lcm(symmetry, tool_symmetry).
     """
-    part_yaw = finite("part_yaw", part_yaw, MotionError)
-    natural_yaw = finite("natural_yaw", natural_yaw, MotionError)
+    part_yaw = finite("part_yaw", part_yaw, RobotError)
+    natural_yaw = finite("natural_yaw", natural_yaw, RobotError)
     for name, order in (("symmetry", symmetry), ("tool_symmetry", tool_symmetry)):
         if not isinstance(order, numbers.Integral) or isinstance(order, bool) or order < 0:
-            raise MotionError(f"argument {name!r}: expected a whole number >= 0 (0: continuous), "
+            raise RobotError(f"argument {name!r}: expected a whole number >= 0 (0: continuous), "
                               f"got {order!r}")
     if symmetry == 0 or tool_symmetry == 0:
         return float(natural_yaw)
@@ -102,9 +102,9 @@ class PartTarget:
     def __post_init__(self) -> None:
         for name in ("x", "y", "yaw", "surface_z", "vx", "seen_at"):
             try:
-                finite(name, getattr(self, name), MotionError)
-            except MotionError as exc:
-                raise MotionError(f"PartTarget ({self.kind!r}): {exc}") from None
+                finite(name, getattr(self, name), RobotError)
+            except RobotError as exc:
+                raise RobotError(f"PartTarget ({self.kind!r}): {exc}") from None
 
     def at(self, t: float) -> PartTarget:
         """Where the part will be at time ``t`` (s) if it rides the belt at ``vx`` (m/s along
@@ -183,9 +183,9 @@ class PickPlace:
     def plan(self, part: PartTarget) -> dict[str, np.ndarray]:
         """Joint waypoints (rad) of one cycle: above, grasp, above_bin (and home)."""
         if part.kind not in GRASP_POINTS:
-            raise IKError(f"no grasp known for kind {part.kind!r}; valid: {', '.join(GRASP_POINTS)}")
+            raise RobotError(f"no grasp known for kind {part.kind!r}; valid: {', '.join(GRASP_POINTS)}")
         if part.bin not in layout.BINS:
-            raise IKError(f"unknown bin {part.bin!r}; valid: {', '.join(layout.BINS)}")
+            raise RobotError(f"unknown bin {part.bin!r}; valid: {', '.join(layout.BINS)}")
         name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
         dx, dy, top = GRASP_POINTS[part.kind]
         c, s = np.cos(part.yaw), np.sin(part.yaw)

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from cell.errors import MotionError
+from cell.errors import RobotError
 from cell.robot._checks import finite
 
 __all__ = ["Segment", "Setpoint", "min_time", "plan_segment"]
@@ -48,33 +48,33 @@ def min_time(q0: np.ndarray, q1: np.ndarray, vmax, amax) -> float:
     joint-space line under per-joint limits ``vmax`` (rad/s) and ``amax`` (rad/s^2)."""
     q0, q1 = _joints("q0", q0), _joints("q1", q1)
     if q0.shape != q1.shape:
-        raise MotionError(f"min_time: q0 {q0} and q1 {q1} must be the same shape")
+        raise RobotError(f"min_time: q0 {q0} and q1 {q1} must be the same shape")
     dq = q1 - q0
     v, a = _limit("vmax", vmax, dq.shape), _limit("amax", amax, dq.shape)
     return _duration(*_profile_limits(dq, v, a))[0]
 
 
 def _joints(name: str, q: object) -> np.ndarray:
-    """Joint angles as a finite float64 vector; ``MotionError`` naming ``name`` otherwise."""
+    """Joint angles as a finite float64 vector; ``RobotError`` naming ``name`` otherwise."""
     try:
         arr = np.array(q, dtype=np.float64)
     except (TypeError, ValueError):
         arr = np.full(1, np.nan)
     if arr.ndim != 1 or not np.isfinite(arr).all():
-        raise MotionError(f"argument {name!r}: expected finite joint angles (rad), got {q!r}")
+        raise RobotError(f"argument {name!r}: expected finite joint angles (rad), got {q!r}")
     return arr
 
 
 def _limit(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
     """A per-joint limit (a number, or one per joint) broadcast to ``shape``: finite and
-    above 0, else ``MotionError`` naming ``name``."""
+    above 0, else ``RobotError`` naming ``name``."""
     try:
         arr = np.broadcast_to(np.asarray(value, dtype=np.float64), shape)
     except (TypeError, ValueError):
-        raise MotionError(f"argument {name!r}: expected a number or {shape[0]} numbers, "
+        raise RobotError(f"argument {name!r}: expected a number or {shape[0]} numbers, "
                           f"got {value!r}") from None
     if not (np.isfinite(arr).all() and (arr > 0).all()):
-        raise MotionError(f"argument {name!r}: limits must be finite and above 0, got {value!r}")
+        raise RobotError(f"argument {name!r}: limits must be finite and above 0, got {value!r}")
     return arr
 
 
@@ -105,7 +105,7 @@ class Segment:
 
     def sample(self, t: float) -> Setpoint:
         """The :class:`Setpoint` at time ``t`` (s; before 0 the start, after the end the goal)."""
-        t = finite("t", t, MotionError)
+        t = finite("t", t, RobotError)
         dq = self.q1 - self.q0
         T, ta, a = self.duration, self.t_accel, self.sdd_max
         if T <= 0.0 or t >= T:
@@ -125,10 +125,10 @@ class Segment:
 def plan_segment(q0: np.ndarray, q1: np.ndarray, vmax, amax) -> Segment:
     """The time-optimal rest-to-rest :class:`Segment` from ``q0`` to ``q1`` (rad)
     under per-joint speed ``vmax`` (rad/s) and acceleration ``amax`` (rad/s^2) limits
-    (scalars or arrays). Raises ``MotionError`` for non-finite input or limits <= 0."""
+    (scalars or arrays). Raises ``RobotError`` for non-finite input or limits <= 0."""
     q0, q1 = _joints("q0", q0), _joints("q1", q1)
     if q0.shape != q1.shape:
-        raise MotionError(f"plan_segment: q0 {q0} and q1 {q1} must be finite, same shape")
+        raise RobotError(f"plan_segment: q0 {q0} and q1 {q1} must be finite, same shape")
     v, a = _limit("vmax", vmax, q0.shape), _limit("amax", amax, q0.shape)
     sd, sdd = _profile_limits(q1 - q0, v, a)
     T, ta = _duration(sd, sdd)

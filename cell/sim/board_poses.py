@@ -33,7 +33,7 @@ import mink
 import mujoco
 import numpy as np
 
-from cell.errors import IKError
+from cell.errors import IKError, SimError
 from cell.robot.ik import ArmIK
 from cell.sim import flange_board, layout
 from cell.sim.arm import HOME, JOINT_NAMES, TOOL_LENGTH, add_arm
@@ -287,11 +287,11 @@ class BoardPoseSampler:
                 max_tries: int | None = None) -> np.ndarray:
         """``n`` joint configurations (n, 6) rad; see ``propose_flange_board_poses``."""
         if n < 1:
-            raise IKError(f"flange board poses: n must be >= 1, got {n}")
+            raise SimError(f"flange board poses: n must be >= 1, got {n}")
         rng = np.random.default_rng(seed)
         q_start = np.array(HOME if start is None else start, dtype=np.float64)
         if q_start.shape != (len(JOINT_NAMES),) or not np.all(np.isfinite(q_start)):
-            raise IKError(f"flange board poses: start must be 6 finite joint angles, got "
+            raise SimError(f"flange board poses: start must be 6 finite joint angles, got "
                           f"{q_start}")
         q_prev = q_start
         out: list[np.ndarray] = []

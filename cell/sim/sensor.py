@@ -63,6 +63,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from cell.errors import SimError
+
 __all__ = ["BANK_FRAMES", "BANK_SCALE", "SensorModel", "add_noise", "draw_noise_bank",
            "noise_run", "quantise", "salt_and_pepper"]
 
@@ -91,10 +93,17 @@ def noise_run(bank: np.ndarray, values: int, rng: np.random.Generator) -> tuple[
     -1.0 with probability 1/2. The frame's unit noise is ``sign * run / BANK_SCALE``.
     """
     if not 0 < values <= bank.size:
-        raise ValueError(f"a frame needs {values} noise values, the bank holds {bank.size}")
+        raise SimError(f"noise_run: a frame needs {values} noise values, the bank holds {bank.size}")
     offset = int(rng.integers(0, bank.size - values + 1))
     sign = 1.0 if rng.integers(2) else -1.0
     return bank[offset:offset + values], sign
+
+
+def _check_uint8(where: str, image: object) -> None:
+    """A ``SimError`` naming ``where`` unless ``image`` is a non-empty uint8 array."""
+    if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.size == 0:
+        got = f"{image.dtype} {image.shape}" if isinstance(image, np.ndarray) else type(image).__name__
+        raise SimError(f"{where}: expected a uint8 image, got {got}")
 
 
 def add_noise(image: np.ndarray, bank: np.ndarray, sigma: float,
@@ -105,6 +114,7 @@ def add_noise(image: np.ndarray, bank: np.ndarray, sigma: float,
     ``draw_noise_bank``) times ``sigma`` (grey levels). Returns a new uint8 array of
     ``image``'s shape.
     """
+    _check_uint8("add_noise", image)
     rows = image.reshape(image.shape[0], -1)  # 2-D, one channel: the bank run lines up
     run, sign = noise_run(bank, rows.size, rng)
     noisy = cv2.addWeighted(rows, 1.0, run.reshape(rows.shape), sign * sigma / BANK_SCALE, 0.0,
@@ -114,8 +124,9 @@ def add_noise(image: np.ndarray, bank: np.ndarray, sigma: float,
 
 def quantise(image: np.ndarray, bits: int) -> None:
     """Keep the top ``bits`` (1..8) bits of each uint8 value of ``image``, in place."""
-    if not 1 <= bits <= 8:
-        raise ValueError(f"bits: must be 1 to 8, got {bits}")
+    _check_uint8("quantise", image)
+    if isinstance(bits, bool) or not isinstance(bits, int | np.integer) or not 1 <= bits <= 8:
+        raise SimError(f"quantise: bits must be an integer 1 to 8, got {bits!r}")
     if bits < 8:
         np.bitwise_and(image, np.uint8((0xFF << (8 - bits)) & 0xFF), out=image)
 
@@ -126,10 +137,12 @@ def salt_and_pepper(image: np.ndarray, fraction: float, rng: np.random.Generator
     Each pixel is hit with probability ``fraction`` (0..1), independently; a hit pixel
     is white (255 in every channel) or black (0) with probability 1/2.
     """
-    if not 0.0 <= fraction <= 1.0:
-        raise ValueError(f"fraction: must be 0 to 1, got {fraction}")
-    if not image.flags.c_contiguous:
-        raise ValueError("salt_and_pepper works in place on a C-contiguous image")
+    _check_uint8("salt_and_pepper", image)
+    if not 0.0 <= fraction <= 1.0:  # (NaN fails too)
+        raise SimError(f"salt_and_pepper: fraction must be 0 to 1, got {fraction}")
+    if image.ndim != 3 or not image.flags.c_contiguous:
+        raise SimError("salt_and_pepper: works in place on a C-contiguous (H, W, C) image, got "
+                       f"shape {image.shape}")
     pixels = image.reshape(-1, image.shape[-1])  # a view: (H*W, C)
     hits = int(rng.binomial(len(pixels), fraction))
     where = rng.choice(len(pixels), size=hits, replace=False, shuffle=False)
@@ -201,10 +214,10 @@ class SensorModel:
         returned itself when the model changes nothing (no distortion, noise, s&p, bits 8).
         """
         if rgb.dtype != np.uint8 or rgb.shape != (self.height, self.width, 3):
-            raise ValueError(f"expected a uint8 ({self.height}, {self.width}, 3) image, got "
+            raise SimError(f"sensor: expected a uint8 ({self.height}, {self.width}, 3) image, got "
                              f"{rgb.dtype} {rgb.shape}")
         if not (math.isfinite(gain) and gain >= 0):
-            raise ValueError(f"gain: must be finite and >= 0, got {gain}")
+            raise SimError(f"sensor: gain must be finite and >= 0, got {gain}")
         out = self.warp(rgb)
         sigma = self.noise_std * gain
         if sigma > 0:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import sys
 
 from cell.config import escape
+from cell.errors import Terminated
 from cell.options import Parser, int_in
 from cell.sweep.progress import clock
 from cell.sweep.runner import BACKENDS, SweepInterrupted, SweepOptions, run_sweep
@@ -56,10 +57,11 @@ def main(argv: list[str]) -> int:
     try:
         result = run_sweep(args.sweep, out=args.out, options=options)
     except SweepInterrupted as stop:
-        print(f"cell sweep: interrupted: {stop.done} of {stop.total} runs are in "
-              f"{escape(str(stop.path))}; run the same command with --resume to do the rest",
-              file=sys.stderr)
-        return 130
+        terminated = isinstance(stop.by, Terminated)
+        print(f"cell sweep: {'terminated' if terminated else 'interrupted'}: {stop.done} of "
+              f"{stop.total} runs are in {escape(str(stop.path))}; run the same command with "
+              "--resume to do the rest", file=sys.stderr)
+        return 143 if terminated else 130
     out = escape(str(result.out))
     print(f"sweep {escape(repr(args.sweep))}: {result.total} runs ({result.resumed} resumed, "
           f"{result.ran} run now, {result.failed} failed) in {clock(result.wall_s)}")

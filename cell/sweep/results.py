@@ -87,7 +87,14 @@ class Results:
 
     def append(self, row: dict[str, Any]) -> None:
         """Write ``row`` (column -> value; missing columns are empty) as one line, fsynced."""
-        data = _line([format_value(row.get(c)) for c in self.columns]).encode("utf-8")
+        cells = []
+        for c in self.columns:
+            try:
+                cells.append(format_value(row.get(c)))
+            except ValueError as exc:  # (the workers turn NaN into an empty cell: a bug)
+                raise SweepError(f"{escape(str(self.path))}: run {escape(str(row.get('run_id')))}, "
+                                 f"column {c!r}: {exc}") from None
+        data = _line(cells).encode("utf-8")
         try:
             self._file.write(data)
             self._file.flush()

@@ -34,11 +34,12 @@ BACKENDS = ("local", "ray")
 
 
 class SweepInterrupted(KeyboardInterrupt):
-    """Ctrl-C stopped a sweep: ``done`` of ``total`` runs are in ``path`` (results.csv)."""
+    """Ctrl-C or SIGTERM stopped a sweep: ``done`` of ``total`` runs are in ``path``
+    (results.csv); ``by`` is the interrupt that stopped it (a ``KeyboardInterrupt``)."""
 
-    def __init__(self, done: int, total: int, path: Path) -> None:
+    def __init__(self, done: int, total: int, path: Path, by: BaseException | None = None) -> None:
         super().__init__(f"{done} of {total} runs done")
-        self.done, self.total, self.path = done, total, path
+        self.done, self.total, self.path, self.by = done, total, path, by
 
 
 @dataclass(frozen=True)
@@ -143,9 +144,9 @@ def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | 
     try:
         if todo:
             backend.run(make_chunks(todo, chunk_runs=options.chunk_runs), finished)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         results.close()
-        raise SweepInterrupted(results.count(), len(plan.runs), results.path) from None
+        raise SweepInterrupted(results.count(), len(plan.runs), results.path, stop) from None
     finally:
         results.close()
         progress.close()

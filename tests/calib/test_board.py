@@ -60,3 +60,10 @@ def test_no_board_no_corners():
     assert detect_board(np.full((480, 640, 3), 128, np.uint8), BOARD) is None
     with pytest.raises(CalibrationError, match="unknown detector 'x'"):
         detect_board(np.zeros((48, 64), np.uint8), BOARD, first="x")
+
+
+@pytest.mark.parametrize("image", [np.zeros((48, 64), np.float64), np.zeros((48, 64, 4), np.uint8),
+                                   np.zeros((0, 64), np.uint8), "board.png"])
+def test_detect_board_refuses_what_is_not_a_uint8_grey_or_rgb_image(image):
+    with pytest.raises(CalibrationError, match="detect_board: expected a uint8"):
+        detect_board(image, BOARD)

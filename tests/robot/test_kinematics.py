@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from cell.errors import IKError
+from cell.errors import RobotError
 from cell.robot.kinematics import ArmKinematics
 from cell.sim.arm import build_arm
 
@@ -50,7 +50,7 @@ def test_feedforward_torque_is_mujocos_inverse_dynamics_without_gravity(models):
 
 
 def test_unknown_frame_names_the_valid_ones(models):
-    with pytest.raises(IKError, match="valid: tcp, flange"):
+    with pytest.raises(RobotError, match="valid: tcp, flange"):
         models[0].pose(np.zeros(6), "gripper")
 
 
@@ -59,11 +59,11 @@ def test_joint_vectors_that_are_not_six_finite_numbers_are_refused(models):
     kin = models[0]
     ok = np.zeros(6)
     for bad in (np.full(6, np.nan), np.zeros(5), np.array([0, 0, 0, 0, 0, np.inf])):
-        with pytest.raises(IKError, match="argument 'q'"):
+        with pytest.raises(RobotError, match="argument 'q'"):
             kin.pose(bad)
-        with pytest.raises(IKError, match="argument 'q'"):
+        with pytest.raises(RobotError, match="argument 'q'"):
             kin.jacobian(bad)
-        with pytest.raises(IKError, match="argument 'q'"):
+        with pytest.raises(RobotError, match="argument 'q'"):
             kin.feedforward_torque(bad, ok, ok)
-    with pytest.raises(IKError, match="argument 'qdd'"):
+    with pytest.raises(RobotError, match="argument 'qdd'"):
         kin.feedforward_torque(ok, ok, np.full(6, np.inf))

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cell.errors import MotionError
+from cell.errors import RobotError
 from cell.robot.trajectory import min_time, plan_segment
 
 VMAX, AMAX = np.pi, np.deg2rad(600.0)
@@ -52,15 +52,15 @@ def test_duration_is_the_single_joint_bound_of_the_limiting_joint():
     (VMAX, math.nan, "amax"), (VMAX, math.inf, "amax"), (VMAX, -1.0, "amax"),
     ([1.0, 2.0], AMAX, "vmax"),
 ])
-def test_bad_limits_are_a_motion_error_naming_them(vmax, amax, culprit):
+def test_bad_limits_are_a_robot_error_naming_them(vmax, amax, culprit):
     # (a NaN or infinite limit once gave a zero-time jump or NaN set-points)
     for plan in (plan_segment, min_time):
-        with pytest.raises(MotionError, match=f"argument '{culprit}'"):
+        with pytest.raises(RobotError, match=f"argument '{culprit}'"):
             plan([0.0], [1.0], vmax, amax)
 
 
-def test_bad_joints_and_times_are_a_motion_error():
-    with pytest.raises(MotionError, match="argument 'q1'"):
+def test_bad_joints_and_times_are_a_robot_error():
+    with pytest.raises(RobotError, match="argument 'q1'"):
         plan_segment([0.0], [math.nan], VMAX, AMAX)
-    with pytest.raises(MotionError, match="argument 't'"):
+    with pytest.raises(RobotError, match="argument 't'"):
         plan_segment([0.0], [1.0], VMAX, AMAX).sample(math.nan)

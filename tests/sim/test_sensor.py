@@ -10,8 +10,18 @@ import mujoco
 import numpy as np
 import pytest
 
+from cell.errors import SimError
 from cell.sim.cameras import part_ids, part_lut
-from cell.sim.sensor import BANK_FRAMES, BANK_SCALE, SensorModel, draw_noise_bank, noise_run
+from cell.sim.sensor import (
+    BANK_FRAMES,
+    BANK_SCALE,
+    SensorModel,
+    add_noise,
+    draw_noise_bank,
+    noise_run,
+    quantise,
+    salt_and_pepper,
+)
 
 H, W = 480, 640
 GREY = 128
@@ -113,12 +123,30 @@ def test_no_noise_and_nothing_else_returns_the_render_untouched():
 def test_apply_rejects_a_frame_of_another_size_or_type_and_a_bad_gain():
     model = SensorModel(K, W, H, noise_std=1.0)
     rng = np.random.default_rng(0)
-    with pytest.raises(ValueError, match="uint8"):
+    with pytest.raises(SimError, match="uint8"):
         model.apply(np.zeros((H, W, 3), np.float32), rng)
-    with pytest.raises(ValueError, match="uint8"):
+    with pytest.raises(SimError, match="uint8"):
         model.apply(np.zeros((H // 2, W, 3), np.uint8), rng)
-    with pytest.raises(ValueError, match="gain"):
+    with pytest.raises(SimError, match="gain"):
         model.apply(_grey(), rng, gain=float("nan"))
+
+
+@pytest.mark.parametrize("call", [
+    lambda img, rng: quantise(img, 4),
+    lambda img, rng: add_noise(img, draw_noise_bank(64, rng), 1.0, rng),
+    lambda img, rng: salt_and_pepper(img, 0.1, rng),
+])
+@pytest.mark.parametrize("image", [np.zeros((4, 5, 3), np.float32), np.zeros((0, 5, 3), np.uint8),
+                                   [[1, 2], [3, 4]]])
+def test_the_sensor_steps_refuse_what_is_not_a_uint8_image(call, image):
+    with pytest.raises(SimError, match=r"^(quantise|add_noise|salt_and_pepper): expected a uint8"):
+        call(image, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("bits", [0, 9, 2.5, True, "8"])
+def test_quantise_takes_1_to_8_bits(bits):
+    with pytest.raises(SimError, match="bits must be an integer 1 to 8"):
+        quantise(np.zeros((2, 2, 3), np.uint8), bits)
 
 
 # --- salt and pepper, bit depth ---------------------------------------------------------------

@@ -4,6 +4,7 @@ a killed worker process costs nothing but its chunk, which is run again."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -85,19 +86,41 @@ def _wait_rows(path: Path, n: int, proc: subprocess.Popen, timeout: float = 120.
         time.sleep(0.05)
 
 
-def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
+@dataclasses.dataclass(frozen=True)
+class _Stopped:
+    """A sweep stopped by a signal: its file, plan, output folder, the gate that slows its
+    detector, exit status, stderr and the run ids in its results.csv."""
+
+    sweep: Path
+    plan: object
+    out: Path
+    gate: Path
+    status: int
+    stderr: str
+    done: list[str]
+
+
+def _stopped_sweep(tmp_path: Path, sig: int) -> _Stopped:
+    """A long sweep stopped by ``sig`` once it has two rows (checked: one line, every row
+    it finished kept)."""
     sweep, out = write_tiny(tmp_path, LONG), tmp_path / "out"
     plan = plan_sweep(load_sweep(sweep))
     slow, gate = _slow_until_removed(tmp_path)
     proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", env=slow)
     _wait_rows(out / "results.csv", 2, proc)
-    proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=60)
     done = _rows(out / "results.csv")
-    assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1, stderr
     assert f"{len(done)} of {len(plan.runs)} runs" in stderr and "--resume" in stderr, stderr
     assert 0 < len(done) < len(plan.runs) and len(set(done)) == len(done)
+    return _Stopped(sweep, plan, out, gate, proc.returncode, stderr, done)
+
+
+def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
+    stop = _stopped_sweep(tmp_path, signal.SIGINT)
+    assert stop.status == 130 and stop.stderr.startswith("cell sweep: interrupted: "), stop.stderr
+    sweep, plan, out, gate, done = stop.sweep, stop.plan, stop.out, stop.gate, stop.done
     todo = next(r for r in plan.runs if r.run_id not in done)
     with open(out / "results.csv", "ab") as f:  # as if the machine died mid-row
         f.write(f"{todo.run_id},detect,{todo.scenario.seed},fr".encode())
@@ -110,6 +133,11 @@ def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
     final = _rows(out / "results.csv")
     assert sorted(final) == sorted(r.run_id for r in plan.runs)
     assert final[: len(done)] == done  # the finished rows were kept as they were
+
+
+def test_sigterm_keeps_the_finished_rows_and_says_terminated(tmp_path):
+    stop = _stopped_sweep(tmp_path, signal.SIGTERM)
+    assert stop.status == 143 and stop.stderr.startswith("cell sweep: terminated: "), stop.stderr
 
 
 def _children(pid: int) -> list[int]:

@@ -28,6 +28,15 @@ def test_values_round_trip_and_nan_is_refused():
     assert parse_value("nan") is None and parse_value("inf") is None
 
 
+def test_a_nan_figure_is_refused_naming_its_run_and_column(tmp_path):
+    path = tmp_path / "results.csv"
+    results, _ = open_results(path, COLUMNS, KNOWN)
+    with pytest.raises(SweepError, match=r"run a{16}, column 'recall': a figure is NaN"):
+        results.append(_row("a" * 16, recall=math.inf))
+    results.close()
+    assert path.read_text().count("\n") == 1  # the header only
+
+
 def test_rows_are_appended_and_read_back(tmp_path):
     path = tmp_path / "results.csv"
     results, cut = open_results(path, COLUMNS, KNOWN)

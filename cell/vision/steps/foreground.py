@@ -31,6 +31,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from cell.errors import VisionError
+from cell.vision._checks import check_colour
 from cell.vision.morphology import opening
 from cell.vision.settings import VisionSettings
 from cell.vision.threshold import (
@@ -78,9 +80,10 @@ class BeltModel:
 
 
 def belt_model(image: np.ndarray) -> BeltModel:
-    """The :class:`BeltModel` of a uint8 RGB frame: a 15-wide median
-    (``cv2.medianBlur``) of every 8th pixel (from (4, 4); nearest: no blend of a part's
-    colour with the belt's), and its 5x5 minimum and maximum."""
+    """The :class:`BeltModel` of a uint8 RGB frame (H, W, 3): a 15-wide median
+    (``cv2.medianBlur``) of every 8th pixel of every 8th row (from (0, 0); no blend of a
+    part's colour with the belt's), and its 5x5 minimum and maximum."""
+    check_colour("image", image)
     small = np.ascontiguousarray(image[::_SCALE, ::_SCALE])
     med = cv2.medianBlur(small, 15)
     square = np.ones((5, 5), np.uint8)
@@ -92,6 +95,11 @@ def colour_difference(image: np.ndarray, low: np.ndarray, high: np.ndarray) -> n
     (uint8 RGB, the image's shape): the largest over the channels of (image - high) or
     (low - image), 0 inside (uint8 (H, W)). A pixel where the belt meets the table matches
     one of them: no false edge there."""
+    for name, value in (("image", image), ("low", low), ("high", high)):
+        check_colour(name, value)
+    if not image.shape == low.shape == high.shape:
+        raise VisionError(f"colour_difference: image, low and high must have one shape, got "
+                          f"{image.shape}, {low.shape}, {high.shape}")
     out = cv2.max(cv2.subtract(image, high), cv2.subtract(low, image))
     h, w = out.shape[:2]
     # the largest channel: a 1x3 dilation of the interleaved rows, read at the middle channel
@@ -125,7 +133,8 @@ def noise_sigma(image: np.ndarray) -> float:
     pixels two apart (x = 2, 4, ... minus x - 2) on every 16th row from row 4; the MAD
     (element n // 2 in order of |d - m|, m element n // 2 of d: upper medians), times
     1.4826 / sqrt(2). Robust: edges and grain, a minority, do not count. 0 when the frame
-    has no such pairs (fewer than 5 rows or 3 columns)."""
+    has no such pairs (fewer than 5 rows or 3 columns). ``image`` uint8 RGB (H, W, 3)."""
+    check_colour("image", image)
     d = np.diff(image[4::16, ::2, 1].astype(np.int16), axis=1).reshape(-1)
     if d.size == 0:
         return 0.0
@@ -151,6 +160,9 @@ def _is_backlit(belt: np.ndarray, level: int) -> bool:
 def find_foreground(image: np.ndarray, settings: VisionSettings) -> Foreground:
     """The :class:`Foreground` of a uint8 RGB frame (H, W, 3) by ``settings.segmentation``
     (see the module docstring)."""
+    check_colour("image", image)
+    if not isinstance(settings, VisionSettings):
+        raise VisionError(f"argument 'settings': expected VisionSettings, got {type(settings).__name__}")
     st = settings
     h, w = image.shape[:2]
     belt = belt_model(image)

@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from cell.vision._checks import check_colour
 from cell.vision.steps.footprint import TablePlane
 from cell.vision.steps.kind import KindFit, fit_kind, holds_another
 from cell.vision.steps.material import PartPixels
@@ -82,7 +83,9 @@ def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: Table
                min_confidence: float = 0.5) -> list[Piece]:
     """The pieces of a blob of touching parts, or [] when no cut gives pieces that fit
     (see the module docstring). ``whole`` is the blob's own fit; ``image`` the uint8 RGB
-    frame (for the colour cut); ``min_confidence`` as :func:`~cell.vision.steps.kind.fit_kind`'s."""
+    frame (H, W, 3, for the colour cut); ``min_confidence`` as
+    :func:`~cell.vision.steps.kind.fit_kind`'s."""
+    check_colour("image", image)
     if plane.area_mm2(blob) <= _MIN_PAIR_MM2 or whole.footprint.width < _MIN_WIDTH:
         return []  # too small for two parts, or narrower than any part: a strip
     limit = _ACCEPT

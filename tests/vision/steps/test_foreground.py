@@ -6,8 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
+from cell.errors import VisionError
 from cell.vision.settings import SEGMENTATIONS, VisionSettings
-from cell.vision.steps.foreground import belt_model, colour_difference, find_foreground
+from cell.vision.steps.foreground import belt_model, colour_difference, find_foreground, noise_sigma
 from tests.vision.steps import drawn
 
 
@@ -111,3 +112,22 @@ def test_a_clean_frame_is_thresholded_without_hysteresis():
     u, v = drawn.mm(-40 + 9, 0)  # on the rim
     assert not masks[0][v, u]
     np.testing.assert_array_equal(masks[0], masks[1])
+
+
+@pytest.mark.parametrize("image", [np.zeros((48, 64, 3), np.float32), np.zeros((48, 64), np.uint8),
+                                   np.zeros((48, 64, 4), np.uint8), [[0, 1], [2, 3]]])
+@pytest.mark.parametrize("call", [
+    lambda img: find_foreground(img, VisionSettings()),
+    lambda img: belt_model(img),
+    lambda img: noise_sigma(img),
+    lambda img: colour_difference(img, img, img),
+])
+def test_the_steps_refuse_what_is_not_a_uint8_rgb_frame(image, call):
+    with pytest.raises(VisionError, match="argument 'image'"):
+        call(image)
+
+
+def test_colour_difference_wants_one_shape():
+    a, b = np.zeros((8, 8, 3), np.uint8), np.zeros((8, 9, 3), np.uint8)
+    with pytest.raises(VisionError, match="one shape"):
+        colour_difference(a, a, b)

@@ -29,7 +29,7 @@ import numpy as np
 from cell.errors import CalibrationError
 
 __all__ = ["FOCAL_RANGE", "MAX_DISTORTION", "MAX_FILE_BYTES", "MAX_SIDE", "MAX_TRANSLATION", "TOLERANCE",
-           "CameraModel", "check_camera_fields", "read_json_file"]
+           "CameraFields", "CameraModel", "check_camera_fields", "check_pose", "read_json_file"]
 
 TOLERANCE = 1e-6  # absolute: |R^T R - I|, |det R - 1| and the fixed rows of K and T
 MAX_SIDE = 1 << 16  # pixels: the largest width or height of a camera model
@@ -58,10 +58,11 @@ class CameraModel:
 
     def __post_init__(self) -> None:
         try:
-            fields = _checked(self.width, self.height, self.K, self.dist, self.T_world_camera)
+            f = check_camera_fields(self.width, self.height, self.K, self.dist, self.T_world_camera)
         except CalibrationError as exc:
             raise CalibrationError(f"CameraModel: {exc}") from None
-        for name, value in zip(("width", "height", "K", "dist", "T_world_camera"), fields, strict=True):
+        for name, value in (("width", f.width), ("height", f.height), ("K", f.K), ("dist", f.dist),
+                            ("T_world_camera", f.pose)):
             object.__setattr__(self, name, value)
 
     @property
@@ -120,10 +121,10 @@ class CameraModel:
         the field. Extra keys are ignored.
         """
         try:
-            fields = _checked(*_fields(data))
+            f = check_camera_fields(*_fields(data))
         except CalibrationError as exc:
             raise CalibrationError(f"{where}: {exc}") from None
-        return cls(*fields)
+        return cls(f.width, f.height, f.K, f.dist, f.pose)
 
     @classmethod
     def load(cls, path: str | Path) -> CameraModel:
@@ -202,26 +203,41 @@ def _fields(data: object) -> tuple:
     return data["width"], data["height"], data["K"], data.get("dist", [0.0] * 5), data["T_world_camera"]
 
 
+@dataclass(frozen=True, eq=False)
+class CameraFields:
+    """A camera's five fields, checked: image ``width`` and ``height`` (px), ``K`` (3x3),
+    ``dist`` (5,) and a ``pose`` (4x4, m; ``T_world_camera`` or a calibration file's
+    ``T_flange_camera``/``T_base_camera``), float64 arrays."""
+
+    width: int
+    height: int
+    K: np.ndarray
+    dist: np.ndarray
+    pose: np.ndarray
+
+
 def check_camera_fields(width: object, height: object, K: object, dist: object, pose: object, *,
-                        pose_name: str = "T_world_camera") -> tuple:
+                        pose_name: str = "T_world_camera") -> CameraFields:
     """The five fields of a camera (image size, ``K``, ``dist`` and a pose named
-    ``pose_name``), checked as the module docstring says and converted (int, int, float64
-    arrays); a ``CalibrationError`` naming the field otherwise. Calibration files reuse it
-    for ``T_flange_camera`` and ``T_base_camera``."""
-    return _checked(width, height, K, dist, pose, pose_name)
-
-
-def _checked(width: object, height: object, K: object, dist: object, T: object,
-             pose_name: str = "T_world_camera") -> tuple:
-    """The five fields, checked and converted (int, int, float64 arrays)."""
+    ``pose_name``), checked as the module docstring says and converted; a
+    ``CalibrationError`` naming the field otherwise. Calibration files reuse it for
+    ``T_flange_camera`` and ``T_base_camera``."""
     width, height = _side("width", width), _side("height", height)
     K = _array("K", K, (3, 3))
     dist = _array("dist", dist, (5,))
-    T = _array(pose_name, T, (4, 4))
+    T = check_pose(pose_name, pose)
     _check_intrinsics(K, width, height)
     _check_distortion(dist)
-    _check_pose(T, pose_name)
-    return width, height, K, dist, T
+    return CameraFields(width, height, K, dist, T)
+
+
+def check_pose(name: str, value: object) -> np.ndarray:
+    """A rigid transform (4x4, metres) as a float64 array: finite, bottom row [0, 0, 0, 1],
+    a rotation (orthonormal, det +1), a translation within ``MAX_TRANSLATION``; a
+    ``CalibrationError`` naming ``name`` otherwise."""
+    T = _array(name, value, (4, 4))
+    _check_pose(T, name)
+    return T
 
 
 def _side(name: str, value: object) -> int:

@@ -23,20 +23,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
-from dataclasses import fields
 
-import cv2
 import numpy as np
 
 from cell.benchmarks import fmt, int_in
+from cell.benchmarks.vision_scene import place_scene
+from cell.benchmarks.vision_score import STEPS, new_stats, score_frame, summarise
 from cell.calib.intrinsics import one_thread
-from cell.catalogue import KINDS, LIGHTING_PRESETS
+from cell.catalogue import LIGHTING_PRESETS
 from cell.errors import BenchError
 from cell.options import Parser
 from cell.scenario import scenario_from_dict
-from cell.vision.detector import PartDetector, StepTimes
+from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
 
 __all__ = ["MAX_SCENES", "SEED_BASE", "cold_start", "main", "parser", "run"]
@@ -45,164 +44,6 @@ SEED_BASE = 900_000  # scenes use seeds SEED_BASE + i; tests use seeds below 100
 MAX_SCENES = 100_000
 _MAX_SEED = 2**63 - 1  # the scenario's seed range
 _PARTS_PER_SCENE = 8
-_VIEW_X = 0.165  # half-range of part centres along the belt around the pick zone (m)
-_VIEW_Y = 0.045  # half-range across the belt (m)
-_STEPS = tuple(f.name for f in fields(StepTimes))
-_REQUIRED = {"material": 0.995, "kind": 0.99, "pos_p95_mm": 1.0, "yaw_p95_deg": 2.0,
-             "latency_ms": 5.0, "latency_over_render": 0.5, "cold_s": 5.0}
-
-
-def _radius(kind: str) -> float:
-    k = KINDS[kind]
-    return 0.5 * math.hypot(k.length, k.width)
-
-
-def _outline(kind: str) -> list[np.ndarray]:
-    """Top-view polygons (metres, body frame) of a kind, as cell.sim.parts builds it."""
-    t = np.linspace(0, 2 * math.pi, 48, endpoint=False)
-    ring = np.stack([np.cos(t), np.sin(t)], axis=1)
-    if kind in ("washer", "disc"):
-        return [ring * KINDS[kind].length / 2]
-    if kind == "hex_nut":
-        a = np.arange(6) * math.pi / 3
-        return [np.stack([np.cos(a), np.sin(a)], axis=1) * 0.0085 / math.cos(math.pi / 6)]
-    if kind == "square_nut":
-        return [np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * 0.0065]
-
-    def box(cx, cy, hx, hy):
-        return np.array([[cx - hx, cy - hy], [cx + hx, cy - hy], [cx + hx, cy + hy],
-                         [cx - hx, cy + hy]])
-
-    if kind == "bolt":
-        return [box(0.0034, 0, 0.020, 0.003), box(-0.0186, 0, 0.002, 0.00575)]
-    d = 0.004345  # l_bracket
-    return [box(d, -0.015 + 0.006 + d, 0.020, 0.006), box(-0.020 + 0.006 + d, d, 0.006, 0.015)]
-
-
-def _overlap(kind_a, pose_a, kind_b, pose_b) -> bool:
-    """Whether two parts' top-view footprints overlap (rasterised at 0.1 mm)."""
-    res, half = 1e-4, 0.06
-    cx, cy = (pose_a[0] + pose_b[0]) / 2, (pose_a[1] + pose_b[1]) / 2
-    size = int(2 * half / res)
-    masks = []
-    for kind, (x, y, yaw) in ((kind_a, pose_a), (kind_b, pose_b)):
-        m = np.zeros((size, size), np.uint8)
-        c, s_ = math.cos(yaw), math.sin(yaw)
-        for poly in _outline(kind):
-            pts = poly @ np.array([[c, s_], [-s_, c]]) + [x - cx + half, y - cy + half]
-            cv2.fillPoly(m, [np.round(pts / res).astype(np.int32)], 255)
-        masks.append(m)
-    return cv2.countNonZero(cv2.bitwise_and(masks[0], masks[1])) > 0
-
-
-def _touching_pose(kind_a, pose_a, kind_b, yaw_b, direction) -> tuple[float, float]:
-    """Where part b goes, along ``direction`` from a, so their footprints just touch."""
-    lo, hi = 0.0, _radius(kind_a) + _radius(kind_b) + 0.002
-    ux, uy = math.cos(direction), math.sin(direction)
-    for _ in range(14):  # bisection to ~0.01 mm
-        mid = (lo + hi) / 2
-        pose = (pose_a[0] + mid * ux, pose_a[1] + mid * uy, yaw_b)
-        lo, hi = (mid, hi) if _overlap(kind_a, pose_a, kind_b, pose) else (lo, mid)
-    d = hi + 0.0003  # a hair apart: they touch in the image, do not stack in the physics
-    return pose_a[0] + d * ux, pose_a[1] + d * uy
-
-
-def _place_scene(world, rng: np.random.Generator, layout) -> list[int]:
-    """Place every part of the world in view; about a third of them touch a neighbour.
-
-    A touching part is placed along a random direction from the previous one at the
-    distance where their top-view footprints just meet (plus 0.3 mm), so pairs touch in
-    the image without being stacked by the physics.
-    """
-    centre = layout.PICK_ZONE
-    placed: list[tuple[str, float, float, float]] = []  # kind, x, y, yaw
-    ids = []
-    for part in world.parts:
-        r = _radius(part.kind)
-        for _ in range(200):
-            yaw = rng.uniform(0, 2 * math.pi)
-            if placed and rng.random() < 0.35:  # touch the previous part
-                pk, px, py, pyaw = placed[-1]
-                x, y = _touching_pose(pk, (px, py, pyaw), part.kind, yaw, rng.uniform(0, 2 * math.pi))
-                others = placed[:-1]
-            else:
-                x = centre[0] + rng.uniform(-_VIEW_X, _VIEW_X)
-                y = centre[1] + rng.uniform(-_VIEW_Y, _VIEW_Y)
-                others = placed
-            inside = abs(x - centre[0]) <= _VIEW_X + 0.01 and abs(y - centre[1]) <= _VIEW_Y + 0.005
-            if inside and all(math.hypot(x - ox, y - oy) > r + _radius(ok) + 0.004
-                              for ok, ox, oy, _ in others):
-                break
-        world.place_next_part(x, y, yaw)
-        placed.append((part.kind, x, y, yaw))
-        ids.append(part.id)
-    world.step(150)  # settle: parts come to rest
-    return ids
-
-
-def _touching_pairs(seg: np.ndarray) -> set[tuple[int, int]]:
-    pairs = set()
-    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = seg[max(dy, 0):, max(dx, 0): seg.shape[1] + min(dx, 0)]
-        b = seg[: seg.shape[0] - dy, max(-dx, 0): seg.shape[1] - max(dx, 0)]
-        m = (a > 0) & (b > 0) & (a != b)
-        for i, j in zip(a[m].tolist(), b[m].tolist(), strict=True):
-            pairs.add((min(i, j), max(i, j)))
-    return pairs
-
-
-def _score_frame(world, frame_seg, dets, stats: dict) -> None:
-    seg = frame_seg
-    h, w = seg.shape
-    ids, counts = np.unique(seg[seg > 0], return_counts=True)
-    border = set(np.unique(np.concatenate([seg[0], seg[-1], seg[:, 0], seg[:, -1]])).tolist())
-    visible = {int(i) for i, c in zip(ids, counts, strict=True) if c >= 30}
-    matched: dict[int, object] = {}
-    for d in dets:
-        u, v = int(round(d.centroid[0])), int(round(d.centroid[1]))
-        r = 3
-        cand = np.zeros(0, np.int32)
-        while r <= 15 and cand.size == 0:  # washers and nuts have a hole at the centroid
-            win = seg[max(v - r, 0): v + r + 1, max(u - r, 0): u + r + 1]
-            cand = win[win > 0]
-            r += 4
-        pid = int(np.bincount(cand).argmax()) if cand.size else 0
-        if pid == 0 or pid in matched:
-            stats["false"] += 1
-            continue
-        matched[pid] = d
-    for pid in visible:
-        info = world.parts[pid - 1]
-        if pid not in matched:
-            if pid not in border:
-                stats["missed"] += 1
-            continue
-        d = matched[pid]
-        if pid in border or d.partial:
-            stats["partial_ok" if (pid in border) == d.partial else "partial_wrong"] += 1
-            continue
-        stats["n"] += 1
-        stats["kind_ok"] += d.kind == info.kind
-        if d.material == "unknown":
-            stats["material_unknown"] += 1
-        elif d.material == info.material:
-            stats["material_ok"] += 1
-        else:
-            stats["material_wrong"] += 1
-            stats["material_errors"].append(f"{info.finish}->{d.material}")
-        if d.kind != info.kind:
-            stats["kind_errors"].append(f"{info.kind}->{d.kind}")
-        pos, _ = world.part_pose(pid)
-        if d.position is not None:
-            stats["pos_err"].append(math.hypot(d.position[0] - pos[0], d.position[1] - pos[1]))
-        sym = KINDS[info.kind].symmetry
-        if sym > 0 and d.kind == info.kind:
-            period = 2 * math.pi / sym
-            e = (d.yaw - world.part_yaw(pid)) % period
-            stats["yaw_err"].append(min(e, period - e))
-    pairs = [p for p in _touching_pairs(seg) if p[0] not in border and p[1] not in border]
-    stats["touching_pairs"] += len(pairs)
-    stats["touching_split"] += sum(1 for a, b in pairs if a in matched and b in matched)
 
 
 def run(*, scenes: int, settings: VisionSettings | None = None, seed_base: int = SEED_BASE,
@@ -234,20 +75,13 @@ def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
 
     detector = PartDetector(settings)
     presets = [p for p in LIGHTING_PRESETS if p in presets] if presets else list(LIGHTING_PRESETS)
-    stats = {
-        p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0, "kind_ok": 0,
-            "false": 0, "missed": 0, "partial_ok": 0, "partial_wrong": 0, "touching_pairs": 0,
-            "touching_split": 0, "pos_err": [], "yaw_err": [], "latency": [], "again": [], "render": [],
-            "steps": [], "per_part": [],
-            "material_errors": [], "kind_errors": []}
-        for p in presets
-    }
+    stats = {p: new_stats() for p in presets}
     for i in range(scenes):
         seed = seed_base + i
         sc = scenario_from_dict({"seed": seed, "parts": {"count": parts}})
         world = World.build(sc, arm=False)
         try:
-            _place_scene(world, np.random.default_rng(seed), layout)
+            place_scene(world, np.random.default_rng(seed), layout)
             world.render(depth=False, seg=False)  # warm-up: the first render builds the renderer
             frames = []
             for preset in presets:
@@ -266,7 +100,7 @@ def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
                 s["latency"].append(t_detect)
                 s["render"].append(t_render)
                 s["per_part"].append(t_detect / max(len(np.unique(seg)) - 1, 1))
-                _score_frame(world, seg, dets, s)
+                score_frame(world, seg, dets, s)
                 frames.append((preset, frame))
             for preset, frame in frames:  # again, back to back: no render between them
                 t0 = time.perf_counter()
@@ -274,7 +108,7 @@ def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
                 stats[preset]["again"].append(time.perf_counter() - t0)
         finally:
             world.close()
-    return _summarise(stats, scenes, seed_base, parts)
+    return summarise(stats, scenes, seed_base, parts)
 
 
 _COLD = """
@@ -306,7 +140,7 @@ def cold_start(seed: int = SEED_BASE) -> dict:
     sc = scenario_from_dict({"seed": seed, "parts": {"count": _PARTS_PER_SCENE}})
     world = World.build(sc, arm=False)
     try:
-        _place_scene(world, np.random.default_rng(seed), layout)
+        place_scene(world, np.random.default_rng(seed), layout)
         frame = world.render(depth=False, seg=False)
     finally:
         world.close()
@@ -322,50 +156,6 @@ def cold_start(seed: int = SEED_BASE) -> dict:
     imports, detect, n = out.stdout.split()
     return {"first_detection_s": float(imports) + float(detect), "imports_s": float(imports),
             "detect_s": float(detect), "process_s": process, "detections": int(n)}
-
-
-def _pct(values, q: float, scale: float = 1.0) -> float | None:
-    """The ``q``-th percentile of ``values`` times ``scale``; ``None`` if there are none."""
-    return float(np.percentile(values, q)) * scale if len(values) else None
-
-
-def _summarise(stats: dict, scenes: int, seed_base: int, parts: int = _PARTS_PER_SCENE) -> dict:
-    rows = {}
-    for preset, s in stats.items():
-        n = max(s["n"], 1)
-        pos = np.array(s["pos_err"]) * 1e3
-        yaw = np.degrees(np.array(s["yaw_err"]))
-        lat = _pct(s["latency"], 50, 1e3)
-        ren = _pct(s["render"], 50, 1e3)
-        rows[preset] = {
-            "parts": s["n"],
-            "material_accuracy": s["material_ok"] / n,
-            "material_wrong": s["material_wrong"],
-            "material_unknown": s["material_unknown"],
-            "kind_accuracy": s["kind_ok"] / n,
-            "position_p50_mm": _pct(pos, 50),
-            "position_p95_mm": _pct(pos, 95),
-            "yaw_p95_deg": _pct(yaw, 95),
-            "false": s["false"],
-            "missed": s["missed"],
-            "recall": s["n"] / max(s["n"] + s["missed"], 1),
-            "partial_ok": s["partial_ok"],
-            "partial_wrong": s["partial_wrong"],
-            "touching_pairs": s["touching_pairs"],
-            "touching_split": s["touching_split"],
-            "latency_ms": lat,
-            "latency_p95_ms": _pct(s["latency"], 95, 1e3),
-            "latency_per_part_ms": _pct(s["per_part"], 50, 1e3),
-            "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
-            "render_ms": ren,
-            "latency_over_render": lat / ren if lat is not None and ren else None,
-            "step_ms": {name: _pct([getattr(t, name) for t in s.get("steps", [])], 50, 1e3)
-                        for name in _STEPS},
-            "material_errors": sorted(set(s["material_errors"]))[:10],
-            "kind_errors": sorted(set(s["kind_errors"]))[:10],
-        }
-    return {"scenes_per_preset": scenes, "parts_per_scene": parts,
-            "seed_base": seed_base, "required": _REQUIRED, "presets": rows}
 
 
 def _print(report: dict) -> None:
@@ -386,10 +176,10 @@ def _print(report: dict) -> None:
               f"{fmt(r['latency_ms'], '>5.2f')} {fmt(r['latency_p95_ms'], '>5.2f')} "
               f"{fmt(r['repeat_latency_ms'], '>5.2f')} {fmt(r['latency_per_part_ms'], '>5.2f')} "
               f"{fmt(r['latency_over_render'], '>7.3f')}")
-    print(f"{'ms/step':<8} " + " ".join(f"{name:>10}" for name in _STEPS)
+    print(f"{'ms/step':<8} " + " ".join(f"{name:>10}" for name in STEPS)
           + "  (median per frame; parts = kind and touching parts)")
     for preset, r in report["presets"].items():
-        print(f"{preset:<8} " + " ".join(fmt(r["step_ms"][name], ">10.2f") for name in _STEPS))
+        print(f"{preset:<8} " + " ".join(fmt(r["step_ms"][name], ">10.2f") for name in STEPS))
     for preset, r in report["presets"].items():
         if r["material_errors"] or r["kind_errors"]:
             print(f"  {preset}: material errors {r['material_errors']} kind errors {r['kind_errors']}")

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cell.camera import CameraModel, check_camera_fields, read_json_file
+from cell.camera import CameraModel, check_camera_fields, check_pose, read_json_file
 from cell.errors import CalibrationError
 from cell.files import StagedFiles
 
@@ -72,11 +72,12 @@ class CameraCalibration:
             raise CalibrationError(f"camera {self.name!r}: pose must be one of {', '.join(POSE_KEYS)}, "
                                    f"got {self.pose_name!r}")
         try:
-            fields = check_camera_fields(self.width, self.height, self.K, self.dist, self.pose,
-                                         pose_name=self.pose_name)
+            f = check_camera_fields(self.width, self.height, self.K, self.dist, self.pose,
+                                    pose_name=self.pose_name)
         except CalibrationError as exc:
             raise CalibrationError(f"camera {self.name!r}: {exc}") from None
-        for key, value in zip(("width", "height", "K", "dist", "pose"), fields, strict=True):
+        for key, value in (("width", f.width), ("height", f.height), ("K", f.K), ("dist", f.dist),
+                           ("pose", f.pose)):
             object.__setattr__(self, key, value)
         object.__setattr__(self, "rms", _rms(self.name, self.rms))
         for key in ("method", "scenario"):
@@ -107,8 +108,7 @@ class CameraCalibration:
                     "depends on the arm's pose, so it needs the flange pose at the time of the image "
                     "(T_base_flange); only a fixed camera (e.g. 'overhead') works without one")
             try:
-                _, _, _, _, T_base_flange = check_camera_fields(
-                    self.width, self.height, self.K, self.dist, T_base_flange, pose_name="T_base_flange")
+                T_base_flange = check_pose("T_base_flange", T_base_flange)
             except CalibrationError as exc:
                 raise CalibrationError(f"camera {self.name!r}: {exc}") from None
             T_world_camera = T_base_flange @ self.pose

@@ -32,7 +32,7 @@ _WHERE = {
     "CameraRig": "cameras", "Frame": "cameras", "true_camera_model": "cameras",
     "Conveyor": "conveyor", "PRESETS": "lighting", "LightingPreset": "lighting",
     "apply_lighting": "lighting", "SensorModel": "sensor", "PartInfo": "world",
-    "World": "world", "build_spec": "world", "HOME": "arm", "JOINT_NAMES": "arm",
+    "World": "world", "build_spec": "spec", "HOME": "arm", "JOINT_NAMES": "arm",
     "add_arm": "arm", "build_arm": "arm", "propose_flange_board_poses": "board_poses",
 }
 

@@ -40,67 +40,19 @@ from cell.catalogue import KINDS, MATERIALS
 from cell.errors import SimError
 from cell.scenario import Scenario
 from cell.sim import layout
-from cell.sim.arm import HOME, JOINT_NAMES, add_arm
-from cell.sim.cameras import CameraRig, Frame, add_overhead_camera, true_camera_model
-from cell.sim.conveyor import Conveyor, add_conveyor
+from cell.sim.arm import HOME, JOINT_NAMES
+from cell.sim.cameras import CameraRig, Frame, true_camera_model
+from cell.sim.conveyor import Conveyor
 from cell.sim.faults import FaultInjector, flip_quat, flipped_half_height
-from cell.sim.fixtures import add_bins, add_table, add_target
 from cell.sim.flange_board import corners_in_flange
-from cell.sim.lighting import LightingPreset, add_lights, apply_lighting
-from cell.sim.parts import add_part, add_part_materials
+from cell.sim.lighting import LightingPreset, apply_lighting
 from cell.sim.sensor import SensorModel
-from cell.sim.stage import PartInfo, Stage, offstage_slot
+from cell.sim.spec import MSAA_MAX, build_spec, draw_sequence
+from cell.sim.stage import PartInfo, Stage
 
-__all__ = ["CAMERAS", "MSAA_MAX", "PartInfo", "World", "build_spec"]
+__all__ = ["CAMERAS", "PartInfo", "World"]
 
 CAMERAS = {"overhead": "overhead", "wrist": "arm/wrist_camera"}  # user name -> model name
-
-
-def _draw_sequence(scenario: Scenario, rng: np.random.Generator) -> list[tuple[str, str]]:
-    kinds, finishes = scenario.parts.kinds, scenario.parts.materials
-    return [
-        (kinds[rng.integers(len(kinds))], finishes[rng.integers(len(finishes))])
-        for _ in range(scenario.parts.count)
-    ]
-
-
-MSAA_MAX = 16  # the most multisamples per pixel World.build takes (GL drivers may cap it)
-
-
-def build_spec(
-    scenario: Scenario, sequence: list[tuple[str, str]], *, arm: bool = True,
-    flange_board: bool = False, msaa: int = 0,
-) -> mujoco.MjSpec:
-    """The cell's ``MjSpec``: furniture, lights, cameras, the arm and one body per part.
-
-    ``flange_board`` mounts the calibration plate on the arm's tool (needs ``arm``);
-    ``msaa`` sets the renderers' multisamples per pixel (``World.build``)."""
-    spec = mujoco.MjSpec()
-    spec.modelname = "cell"
-    spec.option.timestep = layout.TIMESTEP
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = 10
-    vis = spec.visual
-    vis.global_.offwidth = max(640, scenario.camera.width)
-    vis.global_.offheight = max(480, scenario.camera.height)
-    vis.map.znear = 0.01
-    # No multisampling by default: on the CPU (llvmpipe) renderer it costs 40 % of a
-    # frame, and a part's centroid averages over hundreds of edge pixels anyway (README:
-    # rendering). A calibration's corners want it (``World.build(msaa=4)``).
-    vis.quality.offsamples = msaa
-    add_table(spec)
-    add_conveyor(spec)
-    add_bins(spec)
-    add_target(spec)
-    add_lights(spec)
-    add_overhead_camera(spec, fovy=scenario.camera.fovy)
-    add_part_materials(spec)
-    if arm:
-        add_arm(spec, flange_board=flange_board)
-    for i, (kind, finish) in enumerate(sequence, start=1):
-        body = add_part(spec, f"part_{i}", kind, finish, offstage_slot(i))
-        body.gravcomp = 1.0
-    return spec
 
 
 class World:
@@ -125,7 +77,7 @@ class World:
         seeds = np.random.SeedSequence(scenario.seed).spawn(2)
         self.rng = np.random.default_rng(seeds[0])  # part sequence and spawn poses
         self._sensor_rng = np.random.default_rng(seeds[1])
-        sequence = _draw_sequence(scenario, self.rng)
+        sequence = draw_sequence(scenario, self.rng)
         self.spec = build_spec(scenario, sequence, arm=arm, flange_board=flange_board,
                                msaa=int(msaa))
         try:

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from cell.benchmarks import pick, vision
+from cell.benchmarks.vision_score import new_stats, summarise
 
 ROOT = Path(__file__).parent.parent.parent
 
@@ -143,15 +144,14 @@ def test_a_pick_with_no_finished_cycle_reports_null_and_dash(monkeypatch, capsys
 
 def _empty_stats(presets=("front",)) -> dict:
     """A run's statistics where a frame was detected but no part was matched."""
-    return {p: {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0,
-                "kind_ok": 0, "false": 2, "missed": 1, "partial_ok": 0, "partial_wrong": 0,
-                "touching_pairs": 0, "touching_split": 0, "pos_err": [], "yaw_err": [],
-                "latency": [0.004], "again": [], "render": [0.0], "per_part": [0.004],
-                "material_errors": [], "kind_errors": []} for p in presets}
+    stats = {p: new_stats() for p in presets}
+    for s in stats.values():
+        s.update({"false": 2, "missed": 1, "latency": [0.004], "render": [0.0], "per_part": [0.004]})
+    return stats
 
 
 def test_vision_figures_with_no_samples_are_null_and_dash(capsys):
-    report = vision._summarise(_empty_stats(), scenes=1, seed_base=vision.SEED_BASE, parts=1)
+    report = summarise(_empty_stats(), scenes=1, seed_base=vision.SEED_BASE, parts=1)
     row = report["presets"]["front"]
     for key in ("position_p50_mm", "position_p95_mm", "yaw_p95_deg", "repeat_latency_ms",
                 "latency_over_render"):

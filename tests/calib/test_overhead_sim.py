@@ -70,13 +70,13 @@ def test_joint_readings_drive_the_flange_poses(run):
 def _frames(count: int, seed0: int):
     """``count`` rendered frames with parts in the overhead camera's view (the vision
     bench's scenes), each with the world's ground truth of the parts."""
-    from cell.benchmarks.vision import _place_scene
+    from cell.benchmarks.vision_scene import place_scene
     from cell.sim import World, layout
 
     for k in range(count):
         world = World.build(scenario_from_dict({"seed": seed0 + k, "parts": {"count": 6}}), arm=False)
         try:
-            _place_scene(world, np.random.default_rng(seed0 + k), layout)
+            place_scene(world, np.random.default_rng(seed0 + k), layout)
             frame = world.render(depth=False, seg=False)
             truth = {p.id: world.part_pose(p.id)[0][:2].copy() for p in world.on_stage}
             yield frame, truth

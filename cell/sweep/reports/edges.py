@@ -7,6 +7,8 @@ and of the clutter (the share of edge pixels on no true outline), means over the
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from cell.catalogue import LIGHTING_PRESETS
 from cell.sweep.reports.plots import Colours, heatmap, matrix
 from cell.sweep.reports.table import Plot, Report, done, figure, markdown, number, png, values
@@ -16,6 +18,22 @@ __all__ = ["PLOTS", "build"]
 PLOTS = ("edges.png",)  # the plots it writes (checked before the runs)
 
 _CLUTTER = 0.1  # at most this share of clutter counts as clean
+
+
+@dataclass(frozen=True)
+class _Cell:
+    """One setting's means: the share of outlines ``closed``, the ``clutter`` share (None
+    when no edge pixel was found), Canny's ``high`` threshold and ``low`` = ``ratio`` x
+    ``high``."""
+
+    closed: float
+    clutter: float | None
+    ratio: float
+    high: float
+
+    @property
+    def low(self) -> float:
+        return self.ratio * self.high
 
 
 def build(rows: list[dict], plan) -> Report:
@@ -38,22 +56,22 @@ def build(rows: list[dict], plan) -> Report:
         for ax in axes[i]:
             ax.set_xlabel("Canny high threshold (raw 3x3 Sobel magnitude)")
             ax.set_ylabel("low / high")
-        cells = [(closed[a][b], clutter[a][b], ratios[a], highs[b]) for a in range(len(ratios))
+        cells = [_Cell(closed[a][b], clutter[a][b], ratios[a], highs[b]) for a in range(len(ratios))
                  for b in range(len(highs)) if closed[a][b] is not None]
-        clean = [c for c in cells if c[1] is not None and c[1] <= _CLUTTER]
+        clean = [c for c in cells if c.clutter is not None and c.clutter <= _CLUTTER]
         if clean:
-            best = max(clean, key=lambda c: (c[0], -(c[1] or 0)))
+            best = max(clean, key=lambda c: (c.closed, -c.clutter))
             heads.append(f"{li}: most outlines closed with at most {_CLUTTER:.0%} clutter at high "
-                         f"{best[3]:g}, low {best[2] * best[3]:g} (x{best[2]:g}): {best[0]:.0%} closed, "
-                         f"{best[1]:.0%} clutter")
+                         f"{best.high:g}, low {best.low:g} (x{best.ratio:g}): {best.closed:.0%} "
+                         f"closed, {best.clutter:.0%} clutter")
         if len(cells) > 1:  # (the two ends of one setting are no range)
-            most = max(cells, key=lambda c: c[0])
-            low_end = min(cells, key=lambda c: c[3] * c[2])
-            high_end = max(cells, key=lambda c: c[3] * c[2])
-            heads.append(f"{li}: too low (high {low_end[3]:g}, low {low_end[2] * low_end[3]:g}): "
-                         f"{number(low_end[1], '.0%')} of the edges are clutter; too high (high "
-                         f"{high_end[3]:g}, low {high_end[2] * high_end[3]:g}): {number(high_end[0], '.0%')} "
-                         f"of the outlines close; the most that close anywhere: {most[0]:.0%}")
+            most = max(cells, key=lambda c: c.closed)
+            low_end = min(cells, key=lambda c: c.low)
+            high_end = max(cells, key=lambda c: c.low)
+            heads.append(f"{li}: too low (high {low_end.high:g}, low {low_end.low:g}): "
+                         f"{number(low_end.clutter, '.0%')} of the edges are clutter; too high (high "
+                         f"{high_end.high:g}, low {high_end.low:g}): {number(high_end.closed, '.0%')} "
+                         f"of the outlines close; the most that close anywhere: {most.closed:.0%}")
         for a, ratio in enumerate(ratios):
             body.append([str(li), f"{ratio:g}"] + [f"{number(closed[a][b], '.0%')} / "
                                                    f"{number(clutter[a][b], '.0%')}"

@@ -9,8 +9,8 @@ or by :meth:`CameraModel.load`: all values finite; ``width`` and ``height`` inte
 1..``MAX_SIDE``; ``K`` upper triangular with bottom row [0, 0, 1], fx and fy from
 ``FOCAL_RANGE[0]`` to ``FOCAL_RANGE[1]`` times the image's larger side (a field of view
 across it of 179.8 down to 0.06 degrees), the principal point (cx, cy) within one image
-size of the image (-width to 2 width, -height to 2 height) and the skew at most fx in
-size; ``dist`` five numbers, each within +-``MAX_DISTORTION``; ``T_world_camera`` a rigid
+size of the image (-width to 2 width, -height to 2 height) and no skew (OpenCV's model
+has none); ``dist`` five numbers, each within +-``MAX_DISTORTION``; ``T_world_camera`` a rigid
 transform: its rotation orthonormal with determinant +1 and its bottom row [0, 0, 0, 1],
 each within ``TOLERANCE``, its translation within +-``MAX_TRANSLATION`` metres on each
 axis. A failure is a ``CalibrationError`` naming the field (and the file, when loading);
@@ -83,7 +83,13 @@ class CameraModel:
         P = np.atleast_2d(np.asarray(points_world, dtype=np.float64))
         T = self.T_camera_world
         Pc = P @ T[:3, :3].T + T[:3, 3]
-        x, y = Pc[:, 0] / Pc[:, 2], Pc[:, 1] / Pc[:, 2]
+        return self.pixels_of(Pc[:, :2] / Pc[:, 2:3], distort=distort)
+
+    def pixels_of(self, normalised: np.ndarray, *, distort: bool = True) -> np.ndarray:
+        """Pixel coordinates (N, 2) of normalised image points (N, 2: x/z, y/z in the camera
+        frame), through the lens distortion when ``distort``: the inverse of
+        ``cv2.undistortPoints``, where that has an answer."""
+        x, y = normalised[:, 0], normalised[:, 1]
         if distort and np.any(self.dist):
             k1, k2, p1, p2, k3 = self.dist
             r2 = x * x + y * y
@@ -300,7 +306,10 @@ def _check_intrinsics(K: np.ndarray, width: int, height: int) -> None:
                 f"pixels: {lo:g} to {hi:g} times the larger of 'width' {width} and 'height' {height}")
     _within("K", K, (0, 2), -width, 2 * width, f"pixels: -1 to 2 times 'width' {width}")
     _within("K", K, (1, 2), -height, 2 * height, f"pixels: -1 to 2 times 'height' {height}")
-    _within("K", K, (0, 1), -K[0, 0], K[0, 0], "pixels: at most fx in size")
+    if not abs(K[0, 1]) <= TOLERANCE:  # cv2.undistortPoints, cv2.projectPoints and
+        # calibrateCamera know no skew: a model with one would be read two ways
+        raise CalibrationError(f"{_element('K', (0, 1))} must be 0 (OpenCV's camera model, which "
+                               f"the detector and the calibration use, has no skew), got {K[0, 1]}")
 
 
 def _check_distortion(dist: np.ndarray) -> None:

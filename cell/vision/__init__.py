@@ -69,6 +69,7 @@ _WHERE = {
     "match_sad": "template",
     "match_ssd": "template",
     "median": "smoothing",
+    "no_ray": "geometry",
     "non_max_suppression": "corners",
     "occupancy_grid": "occupancy",
     "opening": "morphology",

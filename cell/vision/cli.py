@@ -136,10 +136,19 @@ def _camera(path: str, name: str | None) -> CameraModel:
     return CameraModel.from_dict(data, where=f"camera file {path!r}")
 
 
+_GREY_MODES = ("1", "L", "LA", "La", "I", "I;16", "I;16B", "I;16L", "I;16N", "F")  # Pillow's
+
+
 def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
-    """The image at ``path`` as uint8 RGB, its size checked against ``camera`` before decoding."""
+    """The image at ``path`` as uint8 RGB, its size checked against ``camera`` before decoding.
+    A grey image is refused (the detector tells metal from plastic, and shadows from parts,
+    by colour); an EXIF orientation is not applied (the pixels as the camera took them: the
+    camera model describes those)."""
     _check_image_file(path)
-    w, h = _header_size(path)
+    (w, h), mode = _header(path)
+    if mode in _GREY_MODES:
+        raise VisionError(f"image file {str(path)!r} is a grey image (mode {mode}): the detector "
+                          "needs colour (RGB), which tells metal from plastic and a shadow from a part")
     if (w, h) != (camera.width, camera.height):
         raise VisionError(f"image file {str(path)!r} is {w}x{h} pixels, the camera's is "
                           f"{camera.width}x{camera.height}")
@@ -148,7 +157,8 @@ def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
                           f"the {MAX_PIXELS:,} this command decodes (camera {camera.width}x{camera.height})")
     with _c_stderr() as said:  # libpng writes its errors to stderr itself, past OpenCV's logging
         # (decoded from memory: a path that is not UTF-8 would crash cv2.imread)
-        bgr = cv2.imdecode(np.frombuffer(_image_bytes(path), np.uint8), cv2.IMREAD_COLOR)
+        bgr = cv2.imdecode(np.frombuffer(_image_bytes(path), np.uint8),
+                           cv2.IMREAD_COLOR | cv2.IMREAD_IGNORE_ORIENTATION)
     if bgr is None:
         why = " ".join(said.read().split())[:120] or "damaged or truncated?"
         raise VisionError(f"image file {str(path)!r}: cannot decode the image ({_plain(why)})")
@@ -199,8 +209,9 @@ def _image_bytes(path: Path) -> bytes:
         raise VisionError(f"image file {str(path)!r}: cannot read it ({exc.strerror})") from None
 
 
-def _header_size(path: Path) -> tuple[int, int]:
-    """(width, height) from the image file's header; the pixels are not decoded.
+def _header(path: Path) -> tuple[tuple[int, int], str]:
+    """(width, height) and Pillow's mode from the image file's header; the pixels are not
+    decoded.
 
     Pillow's own decompression-bomb limit is lifted for this read (it would refuse a
     huge image without saying its size); ``MAX_PIXELS`` is checked by the caller.
@@ -208,7 +219,7 @@ def _header_size(path: Path) -> tuple[int, int]:
     limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         with Image.open(path) as im:
-            return im.size
+            return im.size, im.mode
     except UnidentifiedImageError:
         raise VisionError(f"image file {str(path)!r} is not an image (PNG, JPEG, ...) or its "
                           f"format is unknown") from None

@@ -118,7 +118,7 @@ class PartDetector:
         st = self.settings
         t0 = time.perf_counter()
         plane = TablePlane(camera, st.plane_z)
-        fg = find_foreground(image, st)                                      # step 1
+        fg = find_foreground(image, st, m_per_px=plane.m_per_px)             # step 1
         t1 = time.perf_counter()
         min_px = st.min_area_mm2 * 1e-6 / plane.m_per_px**2
         blobs = find_outlines(fg, st, min_px=min_px,                         # step 2

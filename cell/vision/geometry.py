@@ -30,6 +30,7 @@ __all__ = [
     "apply_homography",
     "birdseye_view",
     "homography_from_points",
+    "no_ray",
     "pixel_to_table",
     "solve_planar_pnp",
     "table_homography",
@@ -39,6 +40,7 @@ __all__ = [
 _FAR = 1e3  # m: the largest plane height and world extent taken
 _MAX_VIEW = 2**22  # the most pixels a bird's-eye view may have (2048 x 2048)
 _DIST_COUNTS = (4, 5, 8, 12, 14)  # OpenCV's distortion models
+_NO_RAY_PX = 0.01  # px: an undistorted point that maps back further than this has no ray
 
 
 def _check_camera(camera: object) -> CameraModel:
@@ -139,6 +141,16 @@ def table_homography(camera: CameraModel, *, z: float = 0.0) -> np.ndarray:
     return H / H[2, 2]
 
 
+def no_ray(camera: CameraModel, normalised: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """Mask (N,) of the ``pixels`` (N, 2) whose undistorted points ``normalised`` (N, 2, from
+    ``cv2.undistortPoints``) do not map back onto them through ``camera``'s lens model
+    within 0.01 px: a model that folds the image has no ray for such a pixel (or two), and
+    the undistortion's iteration stops anywhere."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        back = camera.pixels_of(np.asarray(normalised, dtype=np.float64))
+        return ~(np.abs(back - pixels).max(axis=1) <= _NO_RAY_PX)
+
+
 def pixel_to_table(camera: CameraModel, pixels: np.ndarray, *, z: float = 0.0) -> np.ndarray:
     """Inverse perspective: the world points (N, 3) where the pixels' rays meet the
     plane ``z`` (metres).
@@ -164,6 +176,11 @@ def pixel_to_table(camera: CameraModel, pixels: np.ndarray, *, z: float = 0.0) -
         px.reshape(-1, 1, 2), cam.K, cam.dist, np.eye(3), np.eye(3),
         (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14),
     ).reshape(-1, 2)
+    lost = no_ray(cam, norm, px)
+    if np.any(lost):
+        i = int(np.argmax(lost))
+        raise VisionError(f"pixel_to_table: pixel ({px[i, 0]:g}, {px[i, 1]:g}) has no ray: the "
+                          "camera's lens model ('dist') folds the image there")
     rays_cam = np.c_[norm, np.ones(len(norm))]
     R, c = cam.T_world_camera[:3, :3], cam.T_world_camera[:3, 3]
     rays = rays_cam @ R.T

@@ -122,7 +122,10 @@ def circularity(mask: np.ndarray) -> float:
 
     ``P`` is :func:`perimeter`; ``A`` is the pixel count with holes filled (the
     outline's area). A digital disc of radius r px comes out near 1 + 0.5/r because
-    the boundary chain runs through pixel centres and steps in 45-degree moves.
+    the boundary chain runs through pixel centres and steps in 45-degree moves. A tiny
+    region comes out below 1, as no real shape can: its chain through the pixel centres
+    is much shorter than its edge (a 2x2 square gives 0.32, a 1x3 line 0.42, a single
+    pixel 0). The measure means something from a few pixels of radius on.
     """
     m = check_mask("mask", mask)
     return perimeter(m) ** 2 / (4 * math.pi * _filled(m).sum())

@@ -159,7 +159,7 @@ EDGE_CAMERAS = {  # valid models at the ends of the ranges: each runs, or is one
     "narrowest lens": {"K": [[640000, 0, 319.5], [0, 640000, 239.5], [0, 0, 1]]},
     "strongest distortion": {"dist": [100, 100, 100, 100, 100]},
     "strongest negative distortion": {"dist": [-100, -100, -100, -100, -100]},
-    "distortion folding the principal point": {"K": [[5, 5, 0], [0, 0.65, -480], [0, 0, 1]],
+    "distortion folding the principal point": {"K": [[5, 0, 0], [0, 0.65, -480], [0, 0, 1]],
                                                "dist": [0, 0, 0, -100, 0]},  # a NaN to int before
     "farthest camera": {"T_world_camera": [[1, 0, 0, 100], [0, -1, 0, -100], [0, 0, -1, 100], [0, 0, 0, 1]]},
     "camera looking along the plane": {"T_world_camera": [[1, 0, 0, 0], [0, 0, 1, 0.45],
@@ -313,3 +313,29 @@ def test_a_non_finite_detection_is_an_error_not_output(snapshot, capfd, monkeypa
         assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera",
                           str(snapshot / "camera.json"), *extra]) == 2
         _one_error_line(capfd, "detection 1: 'yaw' is nan, not a finite number")
+
+
+def test_a_grey_image_is_refused_naming_why(snapshot, tmp_path, capfd):
+    # (a grey frame gave 0 detections: every part colourless, hence a shadow)
+    grey = tmp_path / "grey.png"
+    rgb = cv2.imread(str(snapshot / "rgb.png"))
+    cv2.imwrite(str(grey), cv2.cvtColor(rgb, cv2.COLOR_BGR2GRAY))
+    assert cell_main(["detect", str(grey), "--camera", str(snapshot / "camera.json")]) == 2
+    _one_error_line(capfd, f"'{grey}'", "grey image", "needs colour")
+
+
+def test_a_jpeg_exif_orientation_is_not_applied(snapshot, tmp_path, capsys):
+    # (the decoder turned the pixels by the EXIF tag: a 180-degree tag mirrored every
+    # position; the camera model describes the pixels as the camera took them)
+    from PIL import Image
+
+    path = tmp_path / "turned.jpg"
+    with Image.open(snapshot / "rgb.png") as im:
+        exif = Image.Exif()
+        exif[0x0112] = 3  # orientation: rotated 180 degrees
+        im.convert("RGB").save(path, quality=98, subsampling=0, exif=exif.tobytes())
+    args = ["--camera", str(snapshot / "camera.json"), "--json"]
+    assert main([str(path), *args]) == 0
+    xs = sorted(d["position"][0] for d in json.loads(capsys.readouterr().out)["detections"])
+    truth = json.loads((snapshot / "truth.json").read_text())
+    assert xs == pytest.approx(truth, abs=1e-3)

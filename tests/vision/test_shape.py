@@ -183,3 +183,11 @@ def test_every_shape_function_refuses_an_empty_mask():
                count_holes, describe_shape):
         with pytest.raises(VisionError, match="mask.*empty"):
             fn(empty)
+
+
+@pytest.mark.parametrize(("rows", "cols", "value"), [(2, 2, 16 / (4 * math.pi * 4)),
+                                                      (1, 3, 16 / (4 * math.pi * 3)), (1, 1, 0.0)])
+def test_a_tiny_region_is_less_than_circular_as_documented(rows, cols, value):
+    mask = np.zeros((6, 6), bool)
+    mask[1:1 + rows, 1:1 + cols] = True
+    assert circularity(mask) == pytest.approx(value)

@@ -76,9 +76,12 @@ def measure(scene: object, scenario: Scenario, settings: Settings) -> dict:
     out = figures(score_frame(scene, detections))
     out["fg_iou"] = None
     if scenario.vision.detector == "parts":
+        from cell.vision.steps.footprint import TablePlane
         from cell.vision.steps.foreground import find_foreground
 
-        out["fg_iou"] = foreground_iou(find_foreground(scene.image, scenario.vision).mask, scene)
+        plane = TablePlane(scene.camera, scenario.vision.plane_z)
+        fg = find_foreground(scene.image, scenario.vision, m_per_px=plane.m_per_px)
+        out["fg_iou"] = foreground_iou(fg.mask, scene)
     out["detect_ms"] = detect_ms
     out["scene_s"] = scene.render_s
     return out

@@ -65,6 +65,7 @@ def smooth(image: np.ndarray, settings: Settings) -> np.ndarray:
 def measure(scene: object, scenario: Scenario, settings: Settings) -> dict:
     from cell.jobs.detectors import load_detector
     from cell.sweep.scoring import figures, foreground_iou, score_frame
+    from cell.vision.steps.footprint import TablePlane
     from cell.vision.steps.foreground import find_foreground
 
     t0 = time.perf_counter()
@@ -73,7 +74,9 @@ def measure(scene: object, scenario: Scenario, settings: Settings) -> dict:
     detections = load_detector(scenario.vision).detect(image, scene.camera)
     t2 = time.perf_counter()
     scored = figures(score_frame(scene, detections))
-    out = {"fg_iou": foreground_iou(find_foreground(image, scenario.vision).mask, scene)}
+    plane = TablePlane(scene.camera, scenario.vision.plane_z)
+    fg = find_foreground(image, scenario.vision, m_per_px=plane.m_per_px)
+    out = {"fg_iou": foreground_iou(fg.mask, scene)}
     out.update({k: scored[k] for k in _ACCURACY})
     out.update(filter_ms=1e3 * (t1 - t0), detect_ms=1e3 * (t2 - t1))
     return out

@@ -26,6 +26,7 @@ import numpy as np
 
 from cell.camera import CameraModel
 from cell.errors import VisionError
+from cell.vision.geometry import no_ray
 from cell.vision.steps.outlines import Outline
 
 __all__ = ["Footprint", "TablePlane", "describe"]
@@ -181,10 +182,13 @@ class TablePlane:
         uv = uv.reshape(-1, 1, 2).astype(np.float64)
         if np.any(self.camera.dist):  # iterated to 1e-14, as pixel_to_table
             norm = cv2.undistortPointsIter(uv, self.camera.K, self.camera.dist, None, None,
-                                           _UNDISTORT_CRITERIA)
+                                           _UNDISTORT_CRITERIA).reshape(-1, 2)
+            # a lens model that folds the image has no ray for some pixels, or two: the
+            # iteration then stops anywhere. Such a pixel's point does not map back to it
+            norm[no_ray(self.camera, norm, uv.reshape(-1, 2))] = np.nan
         else:
-            norm = cv2.undistortPoints(uv, self.camera.K, None)
-        rays = norm.reshape(-1, 2) @ self._R[:, :2].T + self._R[:, 2]  # R @ (x, y, 1)
+            norm = cv2.undistortPoints(uv, self.camera.K, None).reshape(-1, 2)
+        rays = norm @ self._R[:, :2].T + self._R[:, 2]  # R @ (x, y, 1)
         with np.errstate(divide="ignore", invalid="ignore"):  # a ray along the plane: inf
             return rays[:, :2] / -rays[:, 2:3]
 

@@ -1,8 +1,12 @@
 """Step 1, foreground: which pixels are not the belt.
 
 ``segmentation = "belt"`` (the default) learns the empty belt from the frame itself: a
-15-wide median over a 1/8-scale copy (120 px at full scale, wider than any part) keeps
-the belt, its texture's mean, light gradients and spot lights, and drops the parts. The
+15-wide median over a 1/8-scale copy (120 px at full scale: 73 mm of the table seen by the
+default camera, wider than any part) keeps the belt, its texture's mean, light gradients
+and spot lights, and drops the parts. A camera that sees the table finer (more pixels, a
+narrower field of view: ``m_per_px``) gets a coarser copy, so that the median stays at
+least 72 mm wide on the table (1/16 at 1280x960): else a large part fills half its window
+and becomes belt, its middle lost. The
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
@@ -32,7 +36,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_colour
+from cell.vision._checks import check_colour, check_range
 from cell.vision.morphology import opening
 from cell.vision.settings import VisionSettings
 from cell.vision.threshold import (
@@ -43,34 +47,37 @@ from cell.vision.threshold import (
     threshold_otsu,
 )
 
-__all__ = ["BeltModel", "Foreground", "belt_model", "colour_difference", "find_foreground",
-           "noise_sigma"]
+__all__ = ["BeltModel", "Foreground", "belt_model", "belt_scale", "colour_difference",
+           "find_foreground", "noise_sigma"]
 
-_SCALE = 8  # the belt model's downscale factor
+_SCALE = 8  # the belt model's downscale factor, at least
+_MEDIAN = 15  # small pixels: the belt median's width
+_WINDOW = 0.072  # m: the belt median's least width on the table (73 mm: the default camera's)
 _THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
 
 
 @dataclass(frozen=True)
 class BeltModel:
-    """The empty belt under this frame's light at 1/8 scale, uint8 RGB each: ``median``,
-    and per channel the ``low`` and ``high`` ends of the medians within 16 px (where the
-    belt meets the table, both). :meth:`at` gives them at any scale, :meth:`median_in`
-    the median in a window."""
+    """The empty belt under this frame's light at 1/``scale`` scale, uint8 RGB each:
+    ``median``, and per channel the ``low`` and ``high`` ends of the medians within 2
+    small pixels (where the belt meets the table, both). :meth:`at` gives them at any
+    scale, :meth:`median_in` the median in a window."""
 
     median: np.ndarray
     low: np.ndarray
     high: np.ndarray
+    scale: int = _SCALE
 
     def at(self, size: tuple[int, int]) -> BeltModel:
         """The model resized (bilinear) to ``size`` (width, height)."""
         return BeltModel(*(cv2.resize(m, size, interpolation=cv2.INTER_LINEAR)
-                           for m in (self.median, self.low, self.high)))
+                           for m in (self.median, self.low, self.high)), scale=1)
 
     def median_in(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
         """The median at full scale in the window [y0:y1, x0:x1] (uint8 RGB): what resizing
         it whole gives there, from the few small pixels around the window only."""
-        s = _SCALE
+        s = self.scale
         hs, ws = self.median.shape[:2]
         i0, j0 = max(y0 // s - 1, 0), max(x0 // s - 1, 0)
         i1, j1 = min(-(-y1 // s) + 1, hs), min(-(-x1 // s) + 1, ws)
@@ -79,15 +86,26 @@ class BeltModel:
         return up[y0 - i0 * s:y1 - i0 * s, x0 - j0 * s:x1 - j0 * s]
 
 
-def belt_model(image: np.ndarray) -> BeltModel:
+def belt_model(image: np.ndarray, *, scale: int = _SCALE) -> BeltModel:
     """The :class:`BeltModel` of a uint8 RGB frame (H, W, 3): a 15-wide median
-    (``cv2.medianBlur``) of every 8th pixel of every 8th row (from (0, 0); no blend of a
-    part's colour with the belt's), and its 5x5 minimum and maximum."""
+    (``cv2.medianBlur``) of every ``scale``-th pixel of every ``scale``-th row (from (0, 0);
+    no blend of a part's colour with the belt's), and its 5x5 minimum and maximum."""
     check_colour("image", image)
-    small = np.ascontiguousarray(image[::_SCALE, ::_SCALE])
-    med = cv2.medianBlur(small, 15)
+    if isinstance(scale, bool) or not isinstance(scale, int | np.integer) or not 1 <= scale <= 4096:
+        raise VisionError(f"argument 'scale': expected an integer 1 to 4096, got {scale!r}")
+    small = np.ascontiguousarray(image[::scale, ::scale])
+    med = cv2.medianBlur(small, _MEDIAN)
     square = np.ones((5, 5), np.uint8)
-    return BeltModel(med, cv2.erode(med, square), cv2.dilate(med, square))
+    return BeltModel(med, cv2.erode(med, square), cv2.dilate(med, square), int(scale))
+
+
+def belt_scale(m_per_px: float | None) -> int:
+    """The belt model's downscale factor for pixels of ``m_per_px`` metres on the table:
+    the median at least ``_WINDOW`` wide there, the factor at least 8 (None: 8)."""
+    if m_per_px is None:
+        return _SCALE
+    m_per_px = check_range("m_per_px", m_per_px, 1e-9, 1.0)
+    return max(_SCALE, min(round(_WINDOW / (_MEDIAN * m_per_px)), 4096))
 
 
 def colour_difference(image: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
@@ -157,15 +175,17 @@ def _is_backlit(belt: np.ndarray, level: int) -> bool:
             and float(np.median(np.ptp(sample, axis=1))) < 40)
 
 
-def find_foreground(image: np.ndarray, settings: VisionSettings) -> Foreground:
+def find_foreground(image: np.ndarray, settings: VisionSettings, *,
+                    m_per_px: float | None = None) -> Foreground:
     """The :class:`Foreground` of a uint8 RGB frame (H, W, 3) by ``settings.segmentation``
-    (see the module docstring)."""
+    (see the module docstring); ``m_per_px`` (metres on the table per pixel, None: the
+    default camera's) sizes the belt model (:func:`belt_scale`)."""
     check_colour("image", image)
     if not isinstance(settings, VisionSettings):
         raise VisionError(f"argument 'settings': expected VisionSettings, got {type(settings).__name__}")
     st = settings
     h, w = image.shape[:2]
-    belt = belt_model(image)
+    belt = belt_model(image, scale=belt_scale(m_per_px))
     backlit = _is_backlit(belt.median, st.backlight_level)
     low, high = (cv2.resize(m, (w, h), interpolation=cv2.INTER_LINEAR) for m in (belt.low, belt.high))
     diff = colour_difference(image, low, high)

@@ -83,7 +83,7 @@ def test_a_camera_without_rays_at_its_principal_point_is_a_vision_error(R, dist)
     cam = drawn.camera()
     T = cam.T_world_camera.copy()
     T[:3, :3] = R
-    K = np.array([[5.0, 5.0, 0.0], [0.0, 0.65, -cam.height], [0.0, 0.0, 1.0]]) if any(dist) else cam.K
+    K = np.array([[5.0, 0.0, 0.0], [0.0, 0.65, -cam.height], [0.0, 0.0, 1.0]]) if any(dist) else cam.K
     cam = CameraModel(cam.width, cam.height, K, np.array(dist), T)
     with pytest.raises(VisionError, match=r"^camera model: its rays at the principal point \(.*\) meet "
                        r"the plane z = 0.08 m nan m apart per pixel: it must look at the plane"):
@@ -107,3 +107,23 @@ def test_describe_refuses_what_is_no_polygon(outline, holes, culprit):
 def test_describe_of_a_tiny_polygon_is_not_refused():
     fp = describe(_polygon(6, 1e-7))
     assert fp.length == pytest.approx(2e-7, rel=1e-3)
+
+
+def _folding_camera() -> CameraModel:
+    """The drawn camera with k1 = -2: its lens model folds the image 0.41 (normalised) from
+    the centre; past about 0.27 of distorted radius no point maps to a pixel at all."""
+    cam = drawn.camera()
+    return CameraModel(cam.width, cam.height, cam.K, np.array([-2.0, 0, 0, 0, 0]), cam.T_world_camera)
+
+
+def test_a_pixel_the_lens_model_has_no_ray_for_gets_none():
+    # (the undistortion stopped anywhere: a finite, wrong point, that projects elsewhere)
+    cam = _folding_camera()
+    plane = TablePlane(cam, 0.08)
+    near, far = np.array([[330.0, 250.0]]), np.array([[31.7, 285.2], [0.0, 0.0]])
+    assert np.isfinite(plane.points(near, 0.0)).all()
+    assert np.isnan(plane.points(far, 0.0)).all()
+    back = cam.project(np.c_[plane.points(near, 0.0), [0.08]])
+    assert back == pytest.approx(near, abs=1e-6)
+    with pytest.raises(VisionError, match=r"pixel \(31.7, 285.2\) has no ray"):
+        pixel_to_table(cam, far, z=0.08)

@@ -8,16 +8,24 @@ import pytest
 
 from cell.errors import VisionError
 from cell.vision.settings import SEGMENTATIONS, VisionSettings
-from cell.vision.steps.foreground import belt_model, colour_difference, find_foreground, noise_sigma
+from cell.vision.steps.foreground import (
+    belt_model,
+    belt_scale,
+    colour_difference,
+    find_foreground,
+    noise_sigma,
+)
 from tests.vision.steps import drawn
 
 
 def test_the_belt_median_in_a_window_is_the_whole_model_resized_there():
     rng = np.random.default_rng(3)
-    model = belt_model(rng.integers(0, 256, (480, 640, 3), dtype=np.uint8))
-    whole = model.at((640, 480))
-    for x0, y0, x1, y1 in ((0, 0, 37, 21), (100, 50, 180, 130), (601, 455, 640, 480), (8, 8, 9, 9)):
-        np.testing.assert_array_equal(model.median_in(x0, y0, x1, y1), whole.median[y0:y1, x0:x1])
+    image = rng.integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    for scale in (8, 16):
+        model = belt_model(image, scale=scale)
+        whole = model.at((640, 480))
+        for x0, y0, x1, y1 in ((0, 0, 37, 21), (100, 50, 180, 130), (601, 455, 640, 480), (8, 8, 9, 9)):
+            np.testing.assert_array_equal(model.median_in(x0, y0, x1, y1), whole.median[y0:y1, x0:x1])
 
 
 def test_no_difference_on_the_belt_nor_where_it_meets_the_table():
@@ -131,3 +139,27 @@ def test_colour_difference_wants_one_shape():
     a, b = np.zeros((8, 8, 3), np.uint8), np.zeros((8, 9, 3), np.uint8)
     with pytest.raises(VisionError, match="one shape"):
         colour_difference(a, a, b)
+
+
+def test_the_belt_model_is_at_least_72_mm_wide_on_the_table_however_fine_the_pixels():
+    assert belt_scale(None) == 8 and belt_scale(0.000607) == 8  # the default camera's pixels
+    assert belt_scale(0.000303) == 16 and belt_scale(0.0012) == 8  # 1280x960; 320x240
+    with pytest.raises(VisionError, match="argument 'm_per_px'"):
+        belt_scale(0.0)
+
+
+def test_a_part_as_wide_as_the_default_window_stays_whole_in_a_fine_frame():
+    # 1280x960 at 0.3 mm a pixel: a 30 mm disc is 100 px wide, most of a 120 px median's
+    # window, whose middle the median then took for belt (the disc lost its middle)
+    img = np.empty((960, 1280, 3), np.uint8)
+    img[:] = drawn.BELT
+    cv2.circle(img, (640, 480), 50, (230, 230, 230), -1)
+    coarse = find_foreground(img, VisionSettings())  # (None: the default camera's 8)
+    fine = find_foreground(img, VisionSettings(), m_per_px=0.0003)
+    assert coarse.mask[480, 640] == 0  # the old failure, kept as the reason
+    assert fine.mask[430:531, 590:691][_disc(50)].all()
+
+
+def _disc(r: int) -> np.ndarray:
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    return xx**2 + yy**2 <= (r - 2) ** 2

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from cell.calib.handeye import HandEyeData, project
+from cell.calib.handeye import HandEyeData, check_turns, project
 from cell.calib.intrinsics import one_thread
 from cell.calib.transforms import invert, make_transform, mean_transform
 from cell.errors import CalibrationError
@@ -82,10 +82,14 @@ def solve_eye_to_hand(data: HandEyeData, *, method: str) -> tuple[np.ndarray, np
                                f"{', '.join(ROBOT_WORLD_METHODS)}")
     R_world2cam, t_world2cam = _contiguous(invert(data.T_camera_board))  # T_board_camera
     R_base2gripper, t_base2gripper = _contiguous(invert(data.T_base_flange))  # T_flange_base
-    with one_thread():
-        R_camera_base, t_camera_base, R_board_flange, t_board_flange = cv2.calibrateRobotWorldHandEye(
-            R_world2cam, t_world2cam, R_base2gripper, t_base2gripper,
-            method=ROBOT_WORLD_METHODS[method])
+    try:
+        with one_thread():
+            R_camera_base, t_camera_base, R_board_flange, t_board_flange = cv2.calibrateRobotWorldHandEye(
+                R_world2cam, t_world2cam, R_base2gripper, t_base2gripper,
+                method=ROBOT_WORLD_METHODS[method])
+    except cv2.error as exc:  # a degenerate set of views
+        raise CalibrationError(f"eye-to-hand: method {method} failed in OpenCV "
+                               f"({str(exc).strip().splitlines()[-1]})") from None
     T_camera_base = make_transform(np.asarray(R_camera_base, np.float64),
                                    np.asarray(t_camera_base, np.float64))
     T_board_flange = make_transform(np.asarray(R_board_flange, np.float64),
@@ -126,6 +130,7 @@ def compare_eye_to_hand(data: HandEyeData) -> tuple[tuple[EyeToHandEstimate, ...
 
     A method whose result is not finite is left out; if all fail, ``CalibrationError``.
     """
+    check_turns(data.T_base_flange, "eye-to-hand", "calibration.overhead_tilt")
     estimates = []
     for name in ROBOT_WORLD_METHODS:
         try:

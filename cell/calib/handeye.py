@@ -37,8 +37,12 @@ __all__ = [
     "consistency",
     "project",
     "reprojection",
+    "check_turns",
+    "second_turn_deg",
     "solve_hand_eye",
 ]
+
+MIN_SECOND_TURN_DEG = 1.0  # the views must turn this much (RMS) about a second axis
 
 HAND_EYE_METHODS = {
     "TSAI": cv2.CALIB_HAND_EYE_TSAI,
@@ -126,17 +130,48 @@ def consistency(data: HandEyeData, T_flange_camera: np.ndarray) -> tuple[np.ndar
     return T_base_board, float(np.sqrt(np.mean(np.sum(miss**2, axis=-1))))
 
 
+def second_turn_deg(T_base_flange: np.ndarray) -> float:
+    """How much the flange turned about a second axis over the views (degrees, RMS): the
+    second singular value of the rotation vectors of every view relative to the first,
+    over the square root of their count. Zero when every view turns about one axis (a
+    tool that only spins about its own axis, say): hand-eye calibration then has no
+    unique answer (Tsai & Lenz, IEEE TRA 5(3), 1989: two non-parallel rotation axes)."""
+    from scipy.spatial.transform import Rotation
+
+    R = np.asarray(T_base_flange, dtype=np.float64)[:, :3, :3]
+    if len(R) < 3:
+        return 0.0
+    turns = Rotation.from_matrix(np.einsum("ji,njk->nik", R[0], R[1:])).as_rotvec()
+    s = np.linalg.svd(turns, compute_uv=False)
+    return float(np.degrees(s[1] / np.sqrt(len(turns))))
+
+
+def check_turns(T_base_flange: np.ndarray, what: str, key: str) -> None:
+    """A ``CalibrationError`` naming ``what`` and the scenario ``key`` that tilts the views,
+    when they turn about one axis only (:func:`second_turn_deg`)."""
+    turn = second_turn_deg(T_base_flange)
+    if not turn >= MIN_SECOND_TURN_DEG:
+        raise CalibrationError(
+            f"{what}: the views turn about one axis only ({turn:.2f} deg RMS about a second "
+            f"axis, at least {MIN_SECOND_TURN_DEG:g} needed): the calibration has no unique "
+            f"answer; tilt the views more ({key})")
+
+
 def solve_hand_eye(data: HandEyeData, *, method: str) -> np.ndarray:
     """``T_flange_camera`` (4x4, m) by ``cv2.calibrateHandEye`` with ``method`` (a key of
     ``HAND_EYE_METHODS``), passed by keyword (positionally it would land in an output slot)."""
     if method not in HAND_EYE_METHODS:
         raise CalibrationError(f"hand-eye: unknown method {method!r}; valid: {', '.join(HAND_EYE_METHODS)}")
     A, B = data.T_base_flange, data.T_camera_board
-    with one_thread():
-        R, t = cv2.calibrateHandEye(
-            [np.ascontiguousarray(T[:3, :3]) for T in A], [np.ascontiguousarray(T[:3, 3]) for T in A],
-            [np.ascontiguousarray(T[:3, :3]) for T in B], [np.ascontiguousarray(T[:3, 3]) for T in B],
-            method=HAND_EYE_METHODS[method])
+    try:
+        with one_thread():
+            R, t = cv2.calibrateHandEye(
+                [np.ascontiguousarray(T[:3, :3]) for T in A], [np.ascontiguousarray(T[:3, 3]) for T in A],
+                [np.ascontiguousarray(T[:3, :3]) for T in B], [np.ascontiguousarray(T[:3, 3]) for T in B],
+                method=HAND_EYE_METHODS[method])
+    except cv2.error as exc:  # a degenerate set of views: "determinant(R) is null", ...
+        raise CalibrationError(f"hand-eye: method {method} failed in OpenCV "
+                               f"({str(exc).strip().splitlines()[-1]})") from None
     X = make_transform(np.asarray(R, dtype=np.float64), np.asarray(t, dtype=np.float64))
     if not np.isfinite(X).all():
         raise CalibrationError(f"hand-eye: method {method} gave a non-finite result (too little "
@@ -147,8 +182,11 @@ def solve_hand_eye(data: HandEyeData, *, method: str) -> np.ndarray:
 def compare_hand_eye(data: HandEyeData) -> tuple[tuple[HandEyeEstimate, ...], str]:
     """Every method's estimate and the name of the one with the lowest consistency error.
 
+    Views that turn about one axis only (:func:`second_turn_deg` under
+    ``MIN_SECOND_TURN_DEG``) are a ``CalibrationError``: the problem has no unique answer.
     A method whose result is not finite is left out; if all fail, ``CalibrationError``.
     """
+    check_turns(data.T_base_flange, "hand-eye", "calibration.max_tilt")
     estimates = []
     for name in HAND_EYE_METHODS:
         try:

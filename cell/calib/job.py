@@ -184,14 +184,38 @@ def _run_overhead(scenario: object, *, progress: Progress | None, touch: bool) -
         world.close()
 
 
+def _check_boards(settings: object, names: tuple[str, ...]) -> None:
+    """The ``[calibration]`` boards are the simulated cell's: the keys describe the board
+    the detector looks for, and in this cell that board is fixed (a ``CalibrationError``
+    naming the keys and the cell's board otherwise: another board was found nowhere, or
+    found with the wrong square size, and calibrated a wrong camera without a word)."""
+    from cell.sim import flange_board, layout
+
+    boards = {"wrist": ("board", layout.TARGET_INNER_CORNERS, layout.TARGET_SQUARE,
+                        "the board on the table"),
+              "overhead": ("flange_board", flange_board.INNER_CORNERS, flange_board.SQUARE,
+                           "the plate on the tool")}
+    for name in names:
+        key, corners, square, what = boards[name]
+        given = (tuple(int(n) for n in getattr(settings, f"{key}_inner_corners")),
+                 float(getattr(settings, f"{key}_square")))
+        if given != (tuple(corners), square):
+            raise CalibrationError(
+                f"calibration.{key}_inner_corners = {list(given[0])} and calibration.{key}_square "
+                f"= {given[1]:g} m: {what} of the simulated cell (the {name} camera's target) has "
+                f"{corners[0]}x{corners[1]} inner corners of {square:g} m squares; these keys "
+                "describe the board the camera looks for, here that one")
+
+
 def run_calibration(scenario: object, *, camera: str = "wrist", progress: Progress | None = None,
                     touch: bool = True) -> CalibrationRun:
     """Calibrate ``camera`` (``wrist``, ``overhead`` or ``all``) of ``scenario`` in fresh
     simulated cells; score it (and, with ``touch``, run the touch tests).
     ``progress(done, total, note)`` follows the views."""
     names = _check_camera(camera)
-    t0 = time.perf_counter()
     settings = scenario.calibration
+    _check_boards(settings, names)
+    t0 = time.perf_counter()
     results, reports = {}, {}
     for name in names:
         t_camera = time.perf_counter()

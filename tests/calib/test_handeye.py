@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -103,3 +105,27 @@ def test_bad_inputs_are_calibration_errors(exact):
     with pytest.raises(CalibrationError, match="'corners' has shape"):
         HandEyeData(BOARD.object_points(), exact["corners"][:3], exact["T_base_flange"],
                     exact["T_camera_board"], K_TRUE, np.zeros(5))
+
+
+def _spinning_only(v: dict) -> dict:
+    """The views with every flange turned from the first about the vertical only (a tool
+    that only spins): the board's poses follow, as the camera would see them."""
+    T0 = v["T_base_flange"][0]
+    flanges, poses = [], []
+    for k in range(len(v["T_base_flange"])):
+        spin = transform_from_rvec([0.0, 0.0, 0.3 * k], [0.01 * k, 0.0, 0.0])
+        T_base_flange = T0 @ spin
+        flanges.append(T_base_flange)
+        poses.append(np.linalg.inv(T_base_flange @ X_TRUE) @ B_TRUE)
+    return {**v, "T_base_flange": np.array(flanges), "T_camera_board": np.array(poses)}
+
+
+def test_views_that_turn_about_one_axis_only_are_refused_naming_the_key(exact):
+    # (max_tilt = 0: OpenCV raised 'determinant(R) is null', or a method gave a camera
+    # 2.4 m off, which the calibration wrote without a word)
+    data = _data(_spinning_only(exact))
+    with pytest.raises(CalibrationError, match=r"turn about one axis only .*calibration.max_tilt"):
+        compare_hand_eye(data)
+    for method in HAND_EYE_METHODS:  # each method alone: a finite answer or a CalibrationError
+        with contextlib.suppress(CalibrationError):
+            assert np.isfinite(solve_hand_eye(data, method=method)).all()

@@ -68,10 +68,12 @@ def held_intrinsics(result: object) -> str:
 def _touch_entry(touch: TouchResult | PartTouchResult | None) -> dict | None:
     if touch is None:
         return None
+    blocked = [bool(b) for b in touch.blocked] or [False] * len(touch.errors_mm)
     if isinstance(touch, PartTouchResult):
         return {"parts": list(touch.kinds), "errors_mm": [float(e) for e in touch.errors_mm],
-                "located_mm": [float(e) for e in touch.located_mm]}
-    return {"corners": list(touch.corner_ids), "errors_mm": [float(e) for e in touch.errors_mm]}
+                "located_mm": [float(e) for e in touch.located_mm], "blocked": blocked}
+    return {"corners": list(touch.corner_ids), "errors_mm": [float(e) for e in touch.errors_mm],
+            "blocked": blocked}
 
 
 def score_camera(result: object, truth: CameraTruth, touch: TouchResult | PartTouchResult | None) -> dict:
@@ -167,4 +169,8 @@ def format_camera(camera: str, report: dict) -> str:
         if "located_mm" in t:
             lines.append("  located on the belt through the camera: "
                          + ", ".join(f"{e:.3f}" for e in t["located_mm"]) + " mm from the truth")
+        if any(t["blocked"]):
+            lines.append(f"  warning: the cup met something short of {sum(t['blocked'])} of its "
+                         f"{len(t['blocked'])} points (or they lay below the table): the calibration "
+                         "puts them too low, by more than the standoff")
     return "\n".join(lines)

@@ -13,6 +13,16 @@ and the simulator's ground truth says where the TCP landed against where that po
 truly is (the same standoff above the true corner). This is the only place, besides the
 report, where ground truth is read, and it is read only to score.
 
+Every touch is guarded: the TCP goes to ``_APPROACH`` above its point, then straight down
+(never below the table's top, z = 0 in the cell's drawings, which the board lies on), and
+both motions stop where the cup meets something (the vacuum switch, the cup's touch sensor,
+reads over ``_CONTACT``): the arm holds where it stopped, then backs off. A calibration that
+puts the board's face too low (behind where it is) by about the standoff or more sends the
+cup onto the board (the lip meets it 2 mm off its face); that touch is ``blocked``, and is
+scored as the distance from the point the calibration sent the TCP to (which the board kept
+it from) to the truth, never less than where the TCP came to rest is from the truth. The
+touch test measures the miss; it does not fail on it.
+
 The overhead camera's touch test (:func:`touch_parts`) touches what that camera is for:
 parts on the belt. ``cell.vision``'s ``PartDetector`` finds them in one overhead image
 through the calibrated camera model (the fixed camera's ``T_base_camera``; the base frame
@@ -21,8 +31,8 @@ TCP (tool down) is driven to ``PART_STANDOFF`` above the part's top there (the b
 height from the cell's drawings plus the detected kind's catalogue height). The larger
 standoff keeps the plate on the tool, which reaches 5 mm past the cup face at 65 mm from
 the tool axis, clear of the belt and the other parts. The miss is measured as for the
-wrist camera, against the same standoff above the part's true top centre; it holds the
-detector's own position error (README, Vision) besides the calibration's.
+wrist camera (guarded too), against the same standoff above the part's true top centre; it
+holds the detector's own position error (README, Vision) besides the calibration's.
 """
 
 from __future__ import annotations
@@ -41,6 +51,7 @@ from cell.calib.planning import ViewPlan, look_at
 from cell.calib.transforms import invert, make_transform, transform_from_rvec
 from cell.errors import CalibrationError, IKError, MotionError
 from cell.robot.ik import tool_yaw
+from cell.robot.suction import SuctionCup
 
 __all__ = ["PART_STANDOFF", "TOUCH_STANDOFF", "PartTouchResult", "TouchResult", "touch_parts", "touch_test",
            "touch_view"]
@@ -49,22 +60,33 @@ TOUCH_STANDOFF = 0.005  # m: the TCP stops this far above the board's face
 PART_STANDOFF = 0.02  # m: the TCP stops this far above a part's top (overhead touch test)
 _BELT_EDGE = 0.01  # m: a detection nearer the belt's edge is not a part on the belt (the edge strip)
 _APPROACH = 0.05  # m: above the point before the last, vertical, move
+_CONTACT = 0.2  # N: a vacuum-switch reading over this is the cup touching something (guarded moves)
+_REST = 0.3  # s: the arm holds still this long before the TCP's resting position is read
+_TABLE_TOP = 0.0  # m: z of the table's top (cell.sim.layout), which the board lies on
 
 
 @dataclass(frozen=True, eq=False)
 class _Touched:
     """``targets`` (K, 3) where the calibration placed the touch points, ``landed`` (K, 3)
     where the TCP came to rest and ``truth`` (K, 3) where the points are (both simulator
-    truth), base frame, metres."""
+    truth), base frame, metres; ``blocked`` (K bools; empty: none) the touches that did not
+    reach their target: the cup met something (the board, a part) on the way and stopped
+    there, or the target lay below the table's top."""
 
     targets: np.ndarray
     landed: np.ndarray
     truth: np.ndarray
+    blocked: tuple[bool, ...] = ()
 
     @property
     def errors_mm(self) -> np.ndarray:
-        """Distance (mm) from each landed TCP to its true point."""
-        return 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+        """Distance (mm) from each landed TCP to its true point; for a blocked touch, from
+        its target (where the calibration sent the TCP) when that is farther."""
+        landed = 1000.0 * np.linalg.norm(self.landed - self.truth, axis=1)
+        if not any(self.blocked):
+            return landed
+        sent = 1000.0 * np.linalg.norm(self.targets - self.truth, axis=1)
+        return np.where(np.asarray(self.blocked, bool), np.maximum(landed, sent), landed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,21 +111,40 @@ def _board_seen(rig: Rig, board: Board, camera: CameraCalibration, *, detector: 
     return rig.kin.pose(q_read, "flange") @ camera.pose @ transform_from_rvec(rvec, tvec)
 
 
-def _touch(rig: Rig, target: np.ndarray, yaw: float, what: str) -> np.ndarray:
-    """Drive the TCP to ``target`` (m, tool down, heading ``yaw``) from above; the TCP's
-    true resting position (m), read from the simulator (scoring only)."""
+def _guarded_move(rig: Rig, q_goal: np.ndarray, *, what: str) -> bool:
+    """Drive to ``q_goal`` (rad) as ``ArmDriver.move`` does, watching the vacuum switch
+    (:meth:`~cell.robot.motion.ArmDriver.move_until`): True when the arm settled there;
+    False when the cup touched something on the way (a reading over ``_CONTACT``): the
+    arm then holds where its joints were at that instant, ``_REST`` s."""
+    cup = SuctionCup(rig.world.model, rig.world.data)
+    if rig.driver.move_until(q_goal, lambda: cup.reading() > _CONTACT, what=what):
+        return True
+    rig.driver.wait(_REST)
+    return False
+
+
+def _touch(rig: Rig, target: np.ndarray, yaw: float, what: str) -> tuple[np.ndarray, bool]:
+    """Drive the TCP to ``target`` (m, tool down, heading ``yaw``) from above, guarded (see
+    the module docstring); the TCP's true resting position (m), read from the simulator
+    (scoring only), and whether it fell short of the target (blocked)."""
     q_now = rig.driver.joint_positions()
+    low = target[2] < _TABLE_TOP  # the board lies on the table: the cup meets it on the way
+    target = np.array([target[0], target[1], max(target[2], _TABLE_TOP)])
     above = target + np.array([0.0, 0.0, _APPROACH])
     q_above = rig.ik.solve(above, yaw, rig.ik.seed_towards(above, yaw, q_now), what=f"above {what}")
     q_at = rig.ik.solve(target, yaw, q_above, what=what)
-    rig.driver.move(q_above, what=f"above {what}")
-    rig.driver.move(q_at, what=what)
-    rig.driver.wait(0.3)
+    if not _guarded_move(rig, q_above, what=f"above {what}"):
+        back = q_now  # blocked on the way down to the approach point: back whence it came
+    elif not _guarded_move(rig, q_at, what=what):
+        back = q_above
+    else:
+        rig.driver.wait(0.3)
+        back = None
     world = rig.world
     mujoco.mj_forward(world.model, world.data)
     landed = world.data.site("arm/tcp").xpos.copy()
-    rig.driver.move(q_above, what=f"above {what}")
-    return landed
+    rig.driver.move(q_above if back is None else back, what=f"above {what}")
+    return landed, back is not None or low
 
 
 def touch_view(settings: object, rng: np.random.Generator) -> ViewPlan:
@@ -144,12 +185,13 @@ def touch_test(rig: Rig, board: Board, camera: CameraCalibration, *, view: ViewP
         P = board.object_points()[list(ids)]
         targets = P @ T_base_board[:3, :3].T + T_base_board[:3, 3] + TOUCH_STANDOFF * T_base_board[:3, 2]
         yaw = tool_yaw(T_base_board[:3, :3])
-        landed = np.array([_touch(rig, target, yaw, f"board corner {i}")
-                           for i, target in zip(ids, targets, strict=True)])
+        touches = [_touch(rig, target, yaw, f"board corner {i}")
+                   for i, target in zip(ids, targets, strict=True)]
     except (IKError, MotionError) as exc:
         raise CalibrationError(f"touch test: {exc}") from None
     truth = np.asarray(true_corners, float)[list(ids)] + np.array([0.0, 0.0, TOUCH_STANDOFF])
-    return TouchResult(targets, landed, truth, corner_ids=tuple(int(i) for i in ids))
+    return TouchResult(targets, np.array([t[0] for t in touches]), truth, tuple(t[1] for t in touches),
+                       corner_ids=tuple(int(i) for i in ids))
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,10 +240,10 @@ def touch_parts(rig: Rig, camera: CameraCalibration, *, vision: object, parts: i
     targets = np.array([[d.position[0], d.position[1], BELT_TOP + KINDS[d.kind].height + PART_STANDOFF]
                         for d in found])
     try:
-        landed = np.array([_touch(rig, target, yaw, f"the {d.kind} seen at "
-                                  f"{np.round(target[:2], 3).tolist()} m")
-                           for d, target in zip(found, targets, strict=True)])
+        touches = [_touch(rig, target, yaw, f"the {d.kind} seen at {np.round(target[:2], 3).tolist()} m")
+                   for d, target in zip(found, targets, strict=True)]
     except (IKError, MotionError) as exc:
         raise CalibrationError(f"touch test: {exc}") from None
     nearest = np.argmin(np.linalg.norm(targets[:, None, :2] - truth_all[None, :, :2], axis=2), axis=1)
-    return PartTouchResult(targets, landed, truth_all[nearest], kinds=tuple(d.kind for d in found))
+    return PartTouchResult(targets, np.array([t[0] for t in touches]), truth_all[nearest],
+                           tuple(t[1] for t in touches), kinds=tuple(d.kind for d in found))

@@ -88,27 +88,48 @@ class ArmDriver:
         Raises ``MotionError`` naming ``what`` if they do not settle in
         ``settle_timeout`` (blocked, or a servo saturated)."""
         seg = self.plan(q_goal)
-        n = int(np.ceil(seg.duration / self.dt - 1e-9))
-        for k in range(n):  # the set-point of each step is the reference at its start
+        self._follow(seg, None)
+        self.settle(what=what, tolerance=tolerance)
+        return seg
+
+    def move_until(self, q_goal: np.ndarray, stop: Callable[[], bool], *, what: str = "goal") -> bool:
+        """:meth:`move` to ``q_goal`` (rad), asking ``stop()`` after every physics step (a
+        guarded move: a touch sensor, say): True when the arm settled at the goal; False
+        when ``stop()`` said so first, the arm then commanded to hold where its joints are.
+        Raises ``MotionError`` as :meth:`move` does."""
+        if self._follow(self.plan(q_goal), stop) and self.settle(what=what, stop=stop):
+            return True
+        self.command(self.joint_positions(), np.zeros(6), np.zeros(6))
+        return False
+
+    def _follow(self, seg: Segment, stop: Callable[[], bool] | None) -> bool:
+        """Send ``seg``'s set-points, one per physics step (each step's is the reference at
+        its start), then its end; False as soon as ``stop()`` is True."""
+        for k in range(int(np.ceil(seg.duration / self.dt - 1e-9))):
             self.command(*seg.sample(k * self.dt))
             self._step(1)
             err = np.abs(self.joint_positions() - seg.sample((k + 1) * self.dt).q).max()
             self.max_tracking_error = max(self.max_tracking_error, float(err))
+            if stop is not None and stop():
+                return False
         self.command(seg.q1, np.zeros(6), np.zeros(6))
-        self.settle(what=what, tolerance=tolerance)
-        return seg
+        return True
 
-    def settle(self, *, what: str = "goal", tolerance: float | None = None) -> None:
+    def settle(self, *, what: str = "goal", tolerance: float | None = None,
+               stop: Callable[[], bool] | None = None) -> bool:
         """Hold the last command until every joint is within ``tolerance`` rad (default
-        ``settle_tolerance``) and nearly still (< 0.05 rad/s)."""
+        ``settle_tolerance``) and nearly still (< 0.05 rad/s): True; False as soon as
+        ``stop()`` is True (when given)."""
         s = self.settings
         tol = s.settle_tolerance if tolerance is None else tolerance
         err = np.inf
         for _ in range(int(np.ceil(s.settle_timeout / self.dt)) + 1):
             err = np.abs(self.joint_positions() - self.q_cmd).max()
             if err < tol and np.abs(self.joint_velocities()).max() < 0.05:
-                return
+                return True
             self._step(1)
+            if stop is not None and stop():
+                return False
         raise MotionError(
             f"arm did not settle at {what} {np.round(self.q_cmd, 3).tolist()} rad within "
             f"{s.settle_timeout} s (joint error {err:.4f} rad): blocked or saturated")

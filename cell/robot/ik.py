@@ -9,12 +9,21 @@ QP-based, Caron's *pink* formulation) with
 - a ``FrameTask`` on the ``tcp`` site (position and orientation),
 - a low-weight ``PostureTask`` towards the seed (keeps the solution on the seed's
   branch: elbow up, wrist the least turned),
-- ``ConfigurationLimit`` (joint ranges), ``VelocityLimit`` (the joint speed limit over
-  one iteration) and ``CollisionAvoidanceLimit`` (arm links and tool against table,
-  conveyor and bins),
+- ``ConfigurationLimit`` (joint ranges), ``VelocityLimit`` (a fixed step of at most
+  ``_IK_VMAX * _IK_DT`` = 0.63 rad per joint and iteration, which keeps each QP's
+  linearisation local) and ``CollisionAvoidanceLimit`` (arm links and tool against
+  table, conveyor and bins),
 
 until the TCP is within ``ik_tolerance`` (and 10x that in radians) of the target.
 Targets are "tool pointing down" poses: a TCP position and a yaw about world z.
+
+The IK answers a geometric question only: its result does not depend on the scenario's
+``max_joint_speed``/``max_joint_accel`` (how fast the arm may move is the trajectory's
+business, ``cell.robot.trajectory``). Its step limit once was the arm's speed limit x
+``_IK_DT``, so an arm slowed to 2.5 deg/s or less ran out of iterations on every pick.
+The solve stalls a few micrometres from its target (the posture task's pull: 5e-6 m
+is met in 4 iterations, 2e-6 m not in any number), so a finer ``ik_tolerance`` fails
+every solve; the error then says "not to the tolerance", not "unreachable".
 """
 
 from __future__ import annotations
@@ -39,7 +48,14 @@ _PREFIX = "arm/"
 _ARM_LINKS = ("upper_arm", "elbow_housing", "forearm", "wrist_1_housing", "wrist_2_housing",
               "wrist_3_housing", "tool_housing", "camera_body", "camera_bracket")
 _OBSTACLES = ("table", "belt", "conveyor_frame", "rail_left", "rail_right")
-_IK_DT = 0.2  # s: one iteration may move each joint by up to speed limit x this
+_IK_DT = 0.2  # s: the step of one differential-IK iteration
+# rad/s: the IK's own velocity limit (180 deg/s, the UR5e's top speed and the default
+# max_joint_speed, so default solves are unchanged): a joint moves at most 0.63 rad per
+# iteration. Deliberately not RobotSettings.max_joint_speed (see the module docstring).
+_IK_VMAX = np.pi
+# an unconverged solve this near its target (m, rad: the default ik_tolerance) is
+# reported as "not to the tolerance", not as out of reach or blocked
+_NEAR_P, _NEAR_R = 1e-4, 1e-3
 
 
 def down_rotation(yaw: float) -> np.ndarray:
@@ -87,13 +103,12 @@ class ArmIK:
         self.task = mink.FrameTask(_PREFIX + "tcp", "site", position_cost=1.0,
                                    orientation_cost=0.5, lm_damping=1e-6)
         self.posture = mink.PostureTask(m, cost=1e-3)
-        vmax = np.deg2rad(self.settings.max_joint_speed)
         obstacles = [g for g in _OBSTACLES + tuple(f"bin_{b}_wall{i}" for b in layout.BINS
                                                    for i in range(4))]
         links = [_PREFIX + g for g in _ARM_LINKS]
         self.limits = [
             mink.ConfigurationLimit(m),
-            mink.VelocityLimit(m, {_PREFIX + n: vmax for n in JOINT_NAMES}),
+            mink.VelocityLimit(m, {_PREFIX + n: _IK_VMAX for n in JOINT_NAMES}),
             mink.CollisionAvoidanceLimit(m, geom_pairs=[(links, obstacles)],
                                          minimum_distance_from_collisions=0.01,
                                          collision_detection_distance=0.05),
@@ -148,7 +163,10 @@ class ArmIK:
         with heading ``yaw`` (rad), starting from ``seed`` (6,) rad.
 
         Raises ``IKError`` naming ``what`` and the target when the solver does not reach
-        the tolerance in ``ik_max_iterations`` (unreachable, or blocked by the limits).
+        the tolerance in ``ik_max_iterations``: "unreachable or blocked" when it stops
+        far from the target, "not to the tolerance" when it came within ``_NEAR_P`` m
+        and ``_NEAR_R`` rad (a tolerance finer than the solver reaches). Independent
+        of the arm's speed limits.
         """
         s = self.settings
         position = finite_vector("position", position, 3, RobotError)
@@ -175,12 +193,20 @@ class ArmIK:
         while np.linalg.norm(err[:3]) > tol_p or np.linalg.norm(err[3:]) > tol_r:
             if it >= s.ik_max_iterations:
                 self.stats.append((time.perf_counter() - t0, it))
+                e_p, e_r = float(np.linalg.norm(err[:3])), float(np.linalg.norm(err[3:]))
+                if e_p < _NEAR_P and e_r < _NEAR_R:
+                    why = (f"reached to within {1e6 * e_p:.2f} um and {e_r:.2g} rad, but not "
+                           f"to the tolerance (robot.ik_tolerance {tol_p:g} m, {tol_r:g} "
+                           "rad): the target is in reach; the tolerance is finer than the "
+                           "solver gets (it stalls a few um off) in robot.ik_max_iterations "
+                           f"{s.ik_max_iterations}")
+                else:
+                    why = (f"position error {1000 * e_p:.2f} mm, orientation error "
+                           f"{e_r:.4f} rad: unreachable or blocked by joint or collision "
+                           "limits")
                 raise IKError(
                     f"IK for {what} at {np.round(position, 4).tolist()} m, yaw "
-                    f"{yaw:.3f} rad: no convergence in {it} iterations (position error "
-                    f"{1000 * np.linalg.norm(err[:3]):.2f} mm, orientation error "
-                    f"{np.linalg.norm(err[3:]):.4f} rad): unreachable or blocked by joint "
-                    "or collision limits")
+                    f"{yaw:.3f} rad: no convergence in {it} iterations ({why})")
             try:
                 v = mink.solve_ik(cfg, tasks, _IK_DT, "daqp", limits=self.limits)
             except mink.NoSolutionFound as exc:

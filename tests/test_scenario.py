@@ -333,3 +333,16 @@ def test_sort_window_and_fault_spans_are_checked():
         scenario_from_dict({"capture": {"presets": ["back", "front", "dim"]}})
     with pytest.raises(ScenarioError, match="vision.detector"):
         scenario_from_dict({"vision": {"detector": "rm -rf /"}})
+
+
+def test_a_belt_that_reflects_nothing_is_refused():
+    # (accepted before; the material step divides by it: an aluminium part went to plastic)
+    with pytest.raises(ScenarioError, match=r"vision.belt_rgb"):
+        scenario_from_dict({}, overrides=["vision.belt_rgb=[0, 0, 0]"])
+    assert scenario_from_dict({}, overrides=["vision.belt_rgb=[0.01, 0.5, 1]"]).vision.belt_rgb[0] == 0.01
+
+
+def test_an_ik_tolerance_finer_than_the_solver_reaches_is_refused():
+    # (1e-7 m was valid: every pick then failed; the solver settles 2-5 um off its target)
+    with pytest.raises(ScenarioError, match=r"robot.ik_tolerance"):
+        scenario_from_dict({}, overrides=["robot.ik_tolerance=1e-7"])

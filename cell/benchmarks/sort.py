@@ -57,7 +57,7 @@ def _pooled(rows: dict) -> dict:
     """Sort accuracy and pick success over the parts and picks of every fault-free
     scenario together (a 20-part run alone moves in steps of 5 points)."""
     clean = [r for name, r in rows.items() if name != "sort_faults"]
-    parts = sum(r["accounting"]["spawned"] for r in clean)
+    parts = sum(r["accounting"]["parts"] for r in clean)
     correct = sum(r["accounting"]["binned_correct"] for r in clean)
     picks = sum(r["picks"] for r in clean)
     placed = sum(r["placed"] for r in clean)

@@ -38,6 +38,10 @@ _IDLE_WAIT = (0.05, 0.5)  # s: ... but no sooner and no later than these
 _EMPTY_SPOT = 0.008  # m: a detection this near a placed part's spot means it is still there
 _STATE_EVERY = 0.04  # s: the replay's 3D states, 25 per simulated second
 _STILL_CHECK = 0.02  # s: index mode watches the encoder this long before it picks
+# index mode: a part comes to the barrier within the belt's run from the feeder to it plus
+# one spacing (the feeder puts a part out per spacing of belt run), with this much slack
+# (a part slips a little on the belt, a touching pair is longer)
+_ARRIVAL_SLACK = (1.2, 0.05)  # factor, m
 
 
 class SortLoop:
@@ -80,6 +84,7 @@ class SortLoop:
         self._next_state = 0.0
         self._encoder = (self.world.time, self.world.belt_encoder())
         self._belt_speed = 0.0
+        self.ended = "every part came through"  # or why the job ended before
 
     # --- time -------------------------------------------------------------------------
     def _step(self, n: int = 1) -> None:
@@ -182,22 +187,41 @@ class SortLoop:
         if self.replay is not None:
             self.replay.log_event(self.world.time, text, level=level)
 
+    def _end(self, why: str) -> None:
+        """The job ends before every part came through: ``why`` goes into the report."""
+        self.ended = why
+        self._event(f"{why}: the job ends", "warning")
+
     # --- the two modes ----------------------------------------------------------------
     def _wait_for_part(self) -> bool:
         """Index mode: run the belt until a part stops at the barrier (then let it settle);
-        False when none comes within ``sort.arrival_timeout``, or when a part let go has
-        not ridden on past the barrier within it (jammed there: the job ends)."""
+        False when the feeder's last part has come through, when the belt has run far
+        enough to bring the next part and none came (the feeder's run to the barrier plus
+        one spacing, with some slack), when the belt has not moved for
+        ``sort.arrival_timeout`` (stopped), or when a part let go has not ridden on past
+        the barrier within that time (jammed there). Each early end says why (``ended``)."""
         conveyor = self.world.conveyor
         end = self.world.time + self.settings.arrival_timeout
         while conveyor.release > 0.0:  # a part let go rides on past the barrier first
             if self.world.time >= end:
-                self._event("a part let go has not left the barrier within "
-                            "sort.arrival_timeout: the job ends", "warning")
+                self._end("a part let go has not left the barrier within sort.arrival_timeout")
                 return False
             self._step(10)
-        end = self.world.time + self.settings.arrival_timeout
+        factor, slack = _ARRIVAL_SLACK
+        reach = factor * (layout.BARRIER_X - layout.SPAWN_X + self.scenario.parts.spacing) + slack
+        start = last = self.world.belt_encoder()
+        moved_at = self.world.time
         while not self.world.barrier_blocked:
-            if self.world.time >= end or self._all_through(layout.BARRIER_X):
+            if self._all_through(layout.BARRIER_X):
+                return False
+            encoder = self.world.belt_encoder()
+            if encoder != last:
+                moved_at, last = self.world.time, encoder
+            elif self.world.time - moved_at > self.settings.arrival_timeout:
+                self._end("the belt has not moved for sort.arrival_timeout")
+                return False
+            if encoder - start > reach:
+                self._end(f"no part reached the light barrier in {reach:.2f} m of belt run")
                 return False
             self._step(10)
         self._wait(0.3)
@@ -212,7 +236,8 @@ class SortLoop:
         for _ in range(self.settings.relooks + 1):
             cap = self._look()
             todo = self._candidates(cap, 0.0) if cap is not None else []
-            unsure = bool(todo) and choose_bin(todo[0], self.settings) == "reject"
+            unsure = (bool(todo) and choose_bin(todo[0], self.settings) == "reject"
+                      and not getattr(todo[0], "mixed_with", ()))  # (rejected for its neighbours)
             if cap is None or not (unsure or (not todo and self.world.barrier_blocked)):
                 break
         second = ""
@@ -277,7 +302,7 @@ class SortLoop:
             if self.world.belt_encoder() != last:
                 moved_at, last = self.world.time, self.world.belt_encoder()
             elif self.world.time - moved_at > self.settings.arrival_timeout:
-                self._event("the belt has not moved for sort.arrival_timeout: the job ends", "warning")
+                self._end("the belt has not moved for sort.arrival_timeout")
                 return
             cap = self._look()
             v = self._measure_belt()
@@ -287,3 +312,6 @@ class SortLoop:
             else:
                 lo, hi = _IDLE_WAIT  # look again once the belt has brought 2 cm more into view
                 self._wait(min(hi, max(lo, _IDLE_TRAVEL / max(v, 1e-6))))
+        if not self._all_through(layout.BELT_X[1]):
+            self._end(f"the run's time limit ({limit:.0f} s simulated, from the parts, their "
+                      "spacing and the belt's speed) passed")

@@ -31,9 +31,13 @@ def summary_table(report: dict) -> str:
     lines = [f"sort job: scenario {escape(report['scenario'])}, seed {report['seed']}, "
              f"{report['mode']} mode, detector {escape(report['detector'])}, "
              f"captures {'+'.join(report['capture_presets'])}", ""]
-    lines.append(f"{'parts':<16} {a['spawned']:>5}")
+    lines.append(f"{'parts':<16} {a['parts']:>5}")
     for key in OUTCOMES:
         lines.append(f"  {key:<14} {sum(r['outcome'] == key for r in report['parts']):>5}")
+    if a["not_spawned"]:
+        lines.append(f"  {'not_spawned':<14} {a['not_spawned']:>5}")
+    if report["ended"] != "every part came through":
+        lines += ["", f"the job ended early: {report['ended']}"]
     lines += ["", f"{'sort accuracy':<24} {_pct(m['sort_accuracy'])}",
               f"{'classification accuracy':<24} {_pct(m['classification_accuracy'])}",
               f"{'pick success':<24} {_pct(m['pick_success'])}",

@@ -12,7 +12,8 @@ end where every spawned part came to rest decides its outcome:
 - anywhere else (the table, the floor, a bin's rim): ``dropped``.
 
 So ``spawned = binned + rejected + missed + dropped`` holds by construction, and the
-accounting checks it. ``sort_accuracy`` is parts in their correct bin over parts spawned.
+accounting checks it; ``parts = spawned + not_spawned`` (the feeder's parts the job ended
+before). ``sort_accuracy`` is parts in their correct bin over the run's parts.
 """
 
 from __future__ import annotations
@@ -133,14 +134,17 @@ def _true_xy(world: object, part_id: int) -> np.ndarray:
     return position[:2]
 
 
-def metrics_of(rows: list[dict], records: list[PickRecord], *, sim_time: float,
+def metrics_of(rows: list[dict], records: list[PickRecord], *, parts: int, sim_time: float,
                wall_time: float) -> tuple[dict, dict]:
-    """The report's ``metrics`` and ``accounting`` from the part rows and the picks.
+    """The report's ``metrics`` and ``accounting`` from the part rows (one per spawned
+    part), the picks and the run's number of ``parts``: those the feeder never put out
+    (the job ended first) are ``not_spawned``, and count against ``sort_accuracy``.
 
     A figure with no samples is None (``null`` in JSON), never NaN."""
     counts = {k: sum(r["outcome"] == k for r in rows) for k in OUTCOMES}
     spawned = len(rows)
-    accounting = {"spawned": spawned, "binned": counts["binned_correct"] + counts["binned_wrong"],
+    accounting = {"parts": parts, "not_spawned": parts - spawned,
+                  "spawned": spawned, "binned": counts["binned_correct"] + counts["binned_wrong"],
                   "binned_correct": counts["binned_correct"], "binned_wrong": counts["binned_wrong"],
                   "rejected": counts["rejected"], "missed": counts["missed"],
                   "dropped": counts["dropped"]}
@@ -152,7 +156,7 @@ def metrics_of(rows: list[dict], records: list[PickRecord], *, sim_time: float,
     placed = [p for p in records if p.result == "placed"]
     cycles = [p.cycle_time for p in placed if p.cycle_time is not None]
     metrics = {
-        "sort_accuracy": counts["binned_correct"] / spawned if spawned else None,
+        "sort_accuracy": counts["binned_correct"] / parts if parts else None,
         "classification_accuracy": len(right) / len(seen) if seen else None,
         "pick_success": len(placed) / len(records) if records else None,
         "position_error_mm_p50": _quantile(errors, 0.5),

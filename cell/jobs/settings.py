@@ -67,8 +67,8 @@ class SortSettings:
         0.25, lo=0.01, hi=10.0, doc="wait before a capture is retaken (s)")
     arrival_timeout: float = setting(
         30.0, lo=1.0, hi=600.0,
-        doc="the job ends when no part breaks the light barrier (index mode), or the belt's "
-        "encoder does not move (continuous mode), for this long (s)")
+        doc="the job ends when the belt's encoder does not move for this long (s): a stopped "
+        "belt, or a part let go that never leaves the barrier (index mode)")
     pick_window: tuple[float, ...] = setting(
         (-0.12, 0.12), lo=-0.3, hi=0.3, length=2,
         doc="the stretch of belt the arm picks from, along x from the pick zone (m)")

@@ -27,6 +27,7 @@ belt's encoder, the vacuum switch and the calibration; the ground truth is read 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,7 @@ from cell.scenario import Scenario
 
 __all__ = ["SortRun", "overhead_model", "run_sort"]
 
+_FOVY_TOLERANCE = 0.02  # relative: a calibrated field of view this far from camera.fovy is another lens
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,7 +61,9 @@ class SortRun:
 
 def overhead_model(calibration: object, scenario: Scenario, *, where: str) -> CameraModel:
     """The calibrated overhead camera of ``calibration`` (a ``CalibrationFile``), checked
-    against the scenario's image size; ``JobError`` naming ``where`` otherwise."""
+    against the scenario's image size and field of view (``camera.fovy``, within 2 %: a
+    calibration recovers it to a fraction of that, another lens is off by more); a
+    ``JobError`` naming ``where`` otherwise."""
     if "overhead" not in calibration.names:
         raise JobError(f"{where}: holds no overhead camera (it has: "
                        f"{', '.join(calibration.names) or 'none'}); calibrate it with "
@@ -69,6 +73,11 @@ def overhead_model(calibration: object, scenario: Scenario, *, where: str) -> Ca
     if (model.width, model.height) != size:
         raise JobError(f"{where}: the overhead camera was calibrated at {model.width}x{model.height}, "
                        f"the scenario's images are {size[0]}x{size[1]}")
+    fovy = math.degrees(2 * math.atan(model.height / (2 * model.K[1, 1])))
+    if abs(fovy - scenario.camera.fovy) > _FOVY_TOLERANCE * scenario.camera.fovy:
+        raise JobError(f"{where}: the overhead camera was calibrated with a vertical field of view "
+                       f"of {fovy:.1f} deg (fy {model.K[1, 1]:.1f} px), the scenario's camera.fovy is "
+                       f"{scenario.camera.fovy:g} deg: calibrate this camera again")
     return model
 
 
@@ -141,7 +150,8 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
 
 def _report(job: SortLoop, scenario: Scenario, *, wall: float, calibration: dict) -> dict:
     rows = job.keeper.rows(job.records)
-    metrics, accounting = metrics_of(rows, job.records, sim_time=job.world.time, wall_time=wall)
+    metrics, accounting = metrics_of(rows, job.records, parts=len(job.world.parts),
+                                     sim_time=job.world.time, wall_time=wall)
     ik = sum(t for t, _ in job.skill.ik.stats)
     spent = dict(job.timers, ik=ik)
     spent["other"] = max(0.0, wall - sum(spent.values()))
@@ -154,6 +164,7 @@ def _report(job: SortLoop, scenario: Scenario, *, wall: float, calibration: dict
         "calibration": calibration,
         "metrics": metrics,
         "accounting": accounting,
+        "ended": job.ended,
         "wall_time_fractions": {k: v / wall if wall > 0 else None for k, v in spent.items()},
         "parts": rows,
         "picks": [dataclasses.asdict(r) for r in job.records],

@@ -93,8 +93,8 @@ class VisionSettings:
         "the table, a rail, light along the edge)",
     )
     belt_rgb: tuple[float, ...] = setting(
-        (0.22, 0.30, 0.42), lo=0.0, hi=1.0, length=3,
-        doc="belt reflectance per channel (0..1), the white-balance reference",
+        (0.22, 0.30, 0.42), lo=0.01, hi=1.0, length=3,
+        doc="belt reflectance per channel (0.01..1), the white-balance reference",
     )
     min_area_mm2: float = setting(
         40.0, lo=0.0, hi=1e4, doc="smallest blob kept, as a table-plane area (mm^2)"

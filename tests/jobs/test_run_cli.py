@@ -120,12 +120,18 @@ def test_a_replay_with_rerun_turned_off_is_refused_before_the_run(tmp_path):
     assert list(tmp_path.iterdir()) == [] and "calibrat" not in r.stdout
 
 
-def test_a_plane_the_calibrated_camera_does_not_look_down_on_is_refused_first(demo, tmp_path):
+@pytest.mark.parametrize(("setting", "words"), [
+    ("vision.plane_z=5", ["--calibration", "vision.plane_z"]),  # a plane it does not look down on
+    # another lens (accepted before: a calibration at 40 degrees with camera.fovy = 36
+    # missed 3 of 4 parts)
+    ("camera.fovy=36", ["field of view of 40.0 deg", "camera.fovy is 36 deg"]),
+])
+def test_a_calibration_that_does_not_fit_the_scenario_is_refused_first(demo, tmp_path, setting, words):
     out, _ = demo
     r = _cell("run", "scenarios/sort.toml", "--calibration", str(out / "report.calibration.json"),
-              "--set", "vision.plane_z=5", "--report", str(tmp_path / "r.json"))
+              "--set", setting, "--report", str(tmp_path / "r.json"))
     assert r.returncode == 2 and len(r.stderr.splitlines()) == 1, r.stderr
-    assert "--calibration" in r.stderr and "vision.plane_z" in r.stderr
+    assert all(w in r.stderr for w in words), r.stderr
     assert list(tmp_path.iterdir()) == []  # refused before the run: nothing written
 
 

@@ -122,6 +122,28 @@ def test_a_belt_that_never_moves_ends_the_job(calibration):
                   "sort.arrival_timeout=5")
     _check_accounting(report, 1)  # the feeder put out one part; it never reached the arm
     assert report["metrics"]["sim_time_s"] < 10 and report["parts"][0]["outcome"] == "missed"
+    # (the other part was reported nowhere, and the accuracy was over the one spawned)
+    assert report["accounting"]["parts"] == 2 and report["accounting"]["not_spawned"] == 1
+    assert report["ended"] == "the belt has not moved for sort.arrival_timeout"
+    assert report["metrics"]["sort_accuracy"] == 0.0
+
+
+def test_a_slow_belt_is_waited_for_and_an_early_end_is_said(calibration):
+    # index mode waited sort.arrival_timeout (30 s) of time for a part: at 2 cm/s the
+    # first one had not come yet, and the job ended with every part missed or unreported
+    report = _run("sort", calibration, "parts.count=1", "conveyor.speed=0.02")
+    _check_accounting(report, 1)
+    assert report["ended"] == "every part came through"
+    assert report["accounting"]["binned_correct"] == 1
+    stopped = _run("sort", calibration, "parts.count=3", "faults.conveyor_stop=[1, 100]",
+                   "sort.arrival_timeout=3")
+    assert stopped["ended"] == "the belt has not moved for sort.arrival_timeout"
+    a = stopped["accounting"]
+    assert a["parts"] == 3 == a["spawned"] + a["not_spawned"] and a["not_spawned"] >= 1
+    from cell.jobs.report import summary_table
+
+    text = summary_table(stopped)
+    assert "not_spawned" in text and "the job ended early: the belt has not moved" in text
 
 
 def test_index_mode_picks_only_while_the_belt_stands(calibration):

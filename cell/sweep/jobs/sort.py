@@ -12,8 +12,8 @@ which worker ran it.
 
 Figures: the sort report's ``metrics`` (sort and classification accuracy, pick success,
 position error p50/p95, yaw error p95, mean cycle time, parts per minute, simulated time)
-and its ``accounting`` (spawned, binned, binned correct and wrong, rejected, missed,
-dropped). Timings: the job's ``wall_time_s`` and ``real_time_factor``, and
+and its ``accounting`` (spawned, not spawned, binned, binned correct and wrong, rejected,
+missed, dropped). Timings: the job's ``wall_time_s`` and ``real_time_factor``, and
 ``calibration_s`` (the worker's calibration, 0 when it was reused).
 """
 
@@ -33,7 +33,8 @@ __all__ = ["METRICS", "TIMINGS", "Settings", "calibration_scenario", "measure", 
 _REPORT_METRICS = ("sort_accuracy", "classification_accuracy", "pick_success",
                    "position_error_mm_p50", "position_error_mm_p95", "yaw_error_deg_p95",
                    "cycle_time_s_mean", "parts_per_minute", "sim_time_s")
-_ACCOUNTING = ("spawned", "binned", "binned_correct", "binned_wrong", "rejected", "missed", "dropped")
+_ACCOUNTING = ("spawned", "not_spawned", "binned", "binned_correct", "binned_wrong", "rejected",
+               "missed", "dropped")
 METRICS = _REPORT_METRICS + _ACCOUNTING
 TIMINGS = ("wall_time_s", "real_time_factor", "calibration_s")
 _KEPT = 4  # calibrations a worker keeps

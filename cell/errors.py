@@ -28,8 +28,8 @@ class CalibrationError(CellError):
 
 class RobotError(CellError):
     """The robot was asked something meaningless: a NaN or wrong-length joint vector, an
-    unknown frame, kind or bin (a caller's bug, not a pick's outcome). Base of the two
-    outcomes below."""
+    unknown frame, kind or bin (a caller's bug, not a pick's outcome). Base of the
+    outcomes below (IKError, MotionError and its GraspError)."""
 
 
 class IKError(RobotError):

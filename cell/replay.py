@@ -34,6 +34,8 @@ same recording to the viewer.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 import os
 import tempfile
@@ -81,7 +83,7 @@ class Replay:
     """
 
     def __init__(self, path: str | Path, world: World, *, jpeg_quality: int = 85,
-                 plane_z: float | None = None) -> None:
+                 plane_z: float | None = None, key: str = "") -> None:
         self.path = Path(path)
         if not 1 <= int(jpeg_quality) <= 100:
             raise JobError(f"replay {str(self.path)!r}: jpeg_quality must be in 1..100, got {jpeg_quality}")
@@ -91,7 +93,7 @@ class Replay:
             raise JobError(f"replay {str(self.path)!r}: rerun logging is disabled (RERUN="
                            f"{escape(os.environ['RERUN'])} in the environment): unset it to write "
                            "a replay")
-        self._rec = rr.RecordingStream("cell", recording_id=recording_id(world))
+        self._rec = rr.RecordingStream("cell", recording_id=recording_id(world, key=key))
         if not self._rec.is_enabled():
             raise JobError(f"replay {str(self.path)!r}: rerun logging is disabled: "
                            "check the RERUN environment variable")
@@ -259,9 +261,12 @@ def rerun_disabled() -> bool:
     return os.environ.get("RERUN", "").strip().lower() in ("0", "no", "off", "false")
 
 
-def recording_id(world: World) -> str:
-    """The recording id of a run of ``world``: a UUID from its scenario's name and seed."""
-    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"cell/{world.scenario.name}/{world.scenario.seed}"))
+def recording_id(world: World, *, key: str = "") -> str:
+    """The recording id of a run of ``world``: a UUID from its whole scenario (every setting
+    and the seed) and ``key`` (what else makes the run: the calibration it acts on). The
+    viewer merges recordings of one id: two runs that differ in any setting must not."""
+    scenario = json.dumps(dataclasses.asdict(world.scenario), sort_keys=True, default=str)
+    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"cell/{scenario}/{key}"))
 
 
 def _temporary_beside(path: Path) -> str:

@@ -125,16 +125,20 @@ def test_geometry_is_static_and_leaves_out_collision_geoms(tmp_path, scene, stri
     assert "/world/bodies/part_1" not in static  # moves: on sim_time only
 
 
-def test_recording_id_follows_scenario_name_and_seed(tmp_path, scene, module_world_factory):
+def test_recording_id_follows_the_whole_scenario_and_the_key(tmp_path, scene, module_world_factory):
+    # (it came from the scenario's name and seed only: runs of 3 and 6 parts, or on two
+    # calibrations, shared one id, and the viewer merged them into one recording)
     world = scene[0]
     other = module_world_factory(seed=2, parts={"count": 1})
-    with Replay(tmp_path / "a.rrd", world) as a, Replay(tmp_path / "b.rrd", world) as b, \
-            Replay(tmp_path / "c.rrd", other) as c:  # several at once, in one process
-        for rep, w in ((a, world), (b, world), (c, other)):
+    more = module_world_factory(seed=world.scenario.seed, parts={"count": 3})
+    reps = {"a": (world, ""), "b": (world, ""), "c": (other, ""), "d": (more, ""), "e": (world, "cal")}
+    for name, (w, key) in reps.items():  # (several at once, in one process)
+        with Replay(tmp_path / f"{name}.rrd", w, key=key) as rep:
             rep.log_event(w.time, "hello")
-    ids = [RrdReader(tmp_path / f"{n}.rrd").recordings()[0].recording_id for n in "abc"]
-    assert ids[0] == ids[1] == recording_id(world) != ids[2]
-    assert all(_cli("rrd", "verify", str(tmp_path / f"{n}.rrd")).returncode == 0 for n in "abc")
+    ids = {n: RrdReader(tmp_path / f"{n}.rrd").recordings()[0].recording_id for n in reps}
+    assert ids["a"] == ids["b"] == recording_id(world)
+    assert len({ids["a"], ids["c"], ids["d"], ids["e"]}) == 4
+    assert all(_cli("rrd", "verify", str(tmp_path / f"{n}.rrd")).returncode == 0 for n in reps)
 
 
 def test_close_moves_the_file_into_place_atomically(tmp_path, scene):

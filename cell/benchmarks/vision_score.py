@@ -2,7 +2,7 @@
 segmentation image, and the per-preset figures. Ground truth is read here only.
 
 A detection belongs to the part most of the segmentation pixels around its centroid show
-(a window of 3 px, grown to 15 px where the centroid falls in a hole); a second detection
+(a window 3 px either side, grown to 15 px either side where the centroid falls in a hole); a second detection
 of one part, or one on the background, is false. A part with at least 30 visible pixels
 that no detection matched is missed, unless it touches the image border (partial).
 """

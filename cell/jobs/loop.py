@@ -88,15 +88,30 @@ class SortLoop:
 
     # --- time -------------------------------------------------------------------------
     def _step(self, n: int = 1) -> None:
-        """Physics steps (timed), logging the replay's 3D state as time passes."""
-        t0 = time.perf_counter()
-        self.world.step(n)
-        self.timers["physics"] += time.perf_counter() - t0
-        if self.replay is not None and self.world.time >= self._next_state:
+        """Physics steps (timed), logging the replay's 3D state every ``_STATE_EVERY`` s of
+        simulated time (the steps run in chunks that end at those times)."""
+        if self.replay is None:
             t0 = time.perf_counter()
-            self.replay.log_state(self.world.time, self.world)
-            self._next_state = self.world.time + _STATE_EVERY
-            self.timers["replay"] += time.perf_counter() - t0
+            self.world.step(n)
+            self.timers["physics"] += time.perf_counter() - t0
+            return
+        dt = self.world.model.opt.timestep
+        while n > 0:
+            chunk = min(n, max(1, round((self._next_state - self.world.time) / dt)))
+            t0 = time.perf_counter()
+            self.world.step(chunk)
+            self.timers["physics"] += time.perf_counter() - t0
+            n -= chunk
+            if self.world.time >= self._next_state - dt / 2:
+                self._log_state()
+
+    def _log_state(self) -> None:
+        """The replay's 3D state now; the next one ``_STATE_EVERY`` s on (on the grid)."""
+        t0 = time.perf_counter()
+        self.replay.log_state(self.world.time, self.world)
+        while self._next_state <= self.world.time + self.world.model.opt.timestep / 2:
+            self._next_state += _STATE_EVERY
+        self.timers["replay"] += time.perf_counter() - t0
 
     def _wait(self, seconds: float) -> None:
         self._step(max(1, round(seconds / self.world.model.opt.timestep)))
@@ -120,6 +135,7 @@ class SortLoop:
         if cap.retakes:
             self._event(f"{cap.retakes} black frame(s) retaken", "warning")
         if self.replay is not None:
+            self._log_state()  # (the 3D scene as the image shows it)
             t0 = time.perf_counter()
             self.replay.log_capture(cap.t, rgb=cap.image, detections=cap.detections, seg=cap.seg,
                                     camera=self.eye.camera, preset=next(iter(cap.images)))
@@ -167,9 +183,10 @@ class SortLoop:
         else:
             record.result, record.cycle_time = "placed", result.cycle_time
             self._to_verify = record
+        if record.result != "placed":
+            self._event(f"pick {record.index} ({det.kind}): {record.result}: {record.message}", "warning")
         if record.result not in ("placed", "lost"):
             self.attempts.failed(det.position, record.encoder)
-            self._event(f"pick {record.index} ({det.kind}): {record.result}: {record.message}", "warning")
         self._after_pick()
 
     def _after_pick(self) -> None:

@@ -238,7 +238,8 @@ class Attempts:
         return None
 
     def failed(self, position: tuple[float, float], encoder: float) -> None:
-        """Count a failed pick of the part seen at ``position`` when the encoder read ``encoder``."""
+        """Count a failed pick of the part seen at ``position`` ((x, y) m, world frame) when
+        the belt's encoder read ``encoder`` (m)."""
         spot = self._find(position, encoder)
         if spot is None:
             self.spots.append(_Spot(position[0], position[1], encoder))
@@ -247,6 +248,7 @@ class Attempts:
             spot.failures += 1
 
     def given_up(self, position: tuple[float, float], encoder: float) -> bool:
-        """Whether the part at ``position`` has used up its attempts."""
+        """Whether the part at ``position`` ((x, y) m, world frame; the encoder then read
+        ``encoder``, m) has used up its attempts."""
         spot = self._find(position, encoder)
         return spot is not None and spot.failures >= self.limit

@@ -27,6 +27,7 @@ belt's encoder, the vacuum switch and the calibration; the ground truth is read 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import time
 from dataclasses import dataclass
@@ -119,8 +120,10 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
     if replay is not None:
         from cell.replay import Replay
 
+        key = json.dumps(calibration.to_dict(), sort_keys=True)  # (a run is its calibration too)
+
         def recorder(world: object) -> object:
-            return Replay(replay, world)
+            return Replay(replay, world, key=key)
 
     t0 = time.perf_counter()
     job = SortLoop(scenario, camera, replay=recorder, progress=progress, detector=detector)
@@ -135,6 +138,12 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
         if job.replay is not None:
             job.replay.log_metrics(job.world.time, {k: v for k, v in report["metrics"].items()
                                                     if isinstance(v, float)})
+            for row in report["parts"]:  # (the scoring's verdict, for the viewer)
+                truth = row["truth"]
+                job.replay.log_event(job.world.time, f"part {row['id']} ({truth['kind']}, "
+                                     f"{truth['finish']}): {row['outcome']}, ended in "
+                                     f"{row['ended_in']}", level="info" if row["outcome"]
+                                     == "binned_correct" else "warning")
             job.replay.finish()
             if commit_replay:
                 job.replay.commit()

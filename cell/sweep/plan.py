@@ -7,7 +7,7 @@ point's keys applied, validated by :func:`cell.config.build` exactly as a scenar
 the case); the job's parameters likewise (``[job]`` applies to every case whose job has
 that parameter). A run's id is a hash of its job, its parameters (every parameter column's
 value: the grid's keys, the fixed ``[scenario]`` keys and the job's settings), its seed
-and the base scenario file's contents, so a resumed sweep recognises its finished runs
+and the base scenario file's parsed TOML, so a resumed sweep recognises its finished runs
 whatever their order, and an edited base scenario or fixed setting makes a different
 sweep (the scenario's other fields, at their defaults, are left out: a newer ``cell``
 that adds a setting keeps the ids). Two points that resolve to the same run are one run.

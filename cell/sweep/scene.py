@@ -145,6 +145,8 @@ def render_scene(scenario: Scenario, *, gap: float = 0.004, retakes: int = 0) ->
     from cell.sim.world import World
 
     t0 = time.perf_counter()
+    # stream 2 of SeedSequence(seed) (the world uses 0, 1; the wrist calibration 2 too, the
+    # overhead one 3: never in the same run as a scene of this module)
     rng = np.random.default_rng(np.random.SeedSequence(scenario.seed).spawn(3)[2])
     world = World.build(scenario, arm=False)
     try:

@@ -1,4 +1,4 @@
-"""``cell.vision``: image -> facts, numpy and OpenCV only; never imports mujoco.
+"""``cell.vision``: image -> facts, numpy, OpenCV and scipy; never imports mujoco.
 
 The part detector (:class:`PartDetector`, its steps in :mod:`cell.vision.steps`) and the
 syllabus techniques, one module each (each module's docstring names its reference).

@@ -1,6 +1,6 @@
 """Colour conversion (HSV, CIE Lab) and colour statistics of a region.
 
-Statistics only: the metal/plastic classifier lives in ``cell.vision.material``.
+Statistics only: the metal/plastic classifier lives in ``cell.vision.steps.material``.
 Conversions run in float32 so the units are the textbook ones: H in degrees
 [0, 360), S and V in [0, 1], L* in [0, 100], a* and b* roughly [-127, 127]
 (D65 white, sRGB gamma, as ``cv2.cvtColor`` computes for float images).

@@ -51,7 +51,7 @@ class VisionSettings:
         101, lo=3, hi=1001, doc="adaptive segmentation: neighbourhood size (px, odd)"
     )
     adaptive_offset: float = setting(
-        10.0, lo=0.0, hi=255.0, doc="adaptive segmentation: margin above the local mean"
+        10.0, lo=0.0, hi=255.0, doc="adaptive segmentation: margin above the local mean (grey levels)"
     )
     noise_k: float = setting(
         4.0, lo=1.0, hi=50.0,

@@ -207,3 +207,21 @@ def test_a_part_unsure_of_its_material_gets_a_second_look_under_another_light(ca
     report = _run("sort", calibration, "parts.count=2", "vision.detector=unsure_detectors:UnsureFirst",
                   "sort.second_preset=")
     assert [p["bin"] for p in report["picks"]] == ["reject", "reject"]
+
+
+def test_the_replay_logs_poses_every_40_ms_and_the_lost_picks(calibration, tmp_path, monkeypatch):
+    # (poses came once per batch of steps, up to 0.3-0.4 s apart; a dropped part's pick,
+    # 'lost', was no event)
+    from cell.replay import Replay
+
+    times, events = [], []
+    log_state, log_event = Replay.log_state, Replay.log_event
+    monkeypatch.setattr(Replay, "log_state", lambda self, t, w: (times.append(t), log_state(self, t, w)))
+    monkeypatch.setattr(Replay, "log_event", lambda self, t, text, level="info": (
+        events.append(text), log_event(self, t, text, level=level)))
+    scenario = load_scenario(SCENARIOS / "sort.toml", overrides=["parts.count=2", "faults.drop=[1]"])
+    report = run_sort(scenario, calibration=calibration, replay=tmp_path / "r.rrd").report
+    assert max(b - a for a, b in zip(times, times[1:], strict=False)) <= 0.04 + 1e-9
+    assert times[-1] >= report["metrics"]["sim_time_s"] - 0.04
+    assert any(": lost: " in e for e in events)
+    assert sum(e.startswith("part ") for e in events) == report["accounting"]["spawned"]

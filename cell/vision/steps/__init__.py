@@ -9,7 +9,8 @@ them (see :mod:`cell.vision.detector`):
 5. :mod:`~cell.vision.steps.material`: metal or plastic, from grain and albedo;
 6. :mod:`~cell.vision.steps.pose`: position and yaw on the table plane.
 
-Each step is plain numpy and OpenCV; data passes between them as frozen dataclasses.
+Each step is plain numpy and OpenCV (the pose step also scipy); data passes between them
+as frozen dataclasses.
 """
 
 from __future__ import annotations

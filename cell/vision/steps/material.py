@@ -11,8 +11,9 @@ from brass, so the classifier looks at two cues that do not depend on hue:
   the grain free of the sensor noise, with a standard error, so a dim, noisy frame does
   not fake grain (after the colour-space noise model of Healey & Kondepudy, *Radiometric
   CCD camera calibration and noise estimation*, 1994). Scales are robust (MAD, medians),
-  and only the flatter, lit half of the pixels counts: shading, a bolt's curved flank or
-  the shadow terminator leave a residual too, but show in the gradient of the smoothed grey.
+  and only the pixels both flatter and brighter than the part's medians count (about a
+  quarter of them): shading, a bolt's curved flank or the shadow terminator leave a
+  residual too, but show in the gradient of the smoothed grey.
 * **Albedo**. The part's mean colour divided by the belt's colour next to it, times the
   belt's known reflectance (a white balance against a reference surface of known colour),
   is compared with the catalogue's finishes (a softmax over squared distances); metals

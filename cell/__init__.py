@@ -6,7 +6,8 @@ backend, so every renderer in the package is headless by default.
 
 import os
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+if not os.environ.get("MUJOCO_GL"):  # (unset or empty)
+    os.environ["MUJOCO_GL"] = "egl"
 
 from cell.errors import (  # noqa: E402
     BenchError,

@@ -2,13 +2,19 @@
 
 A settings class is a frozen dataclass whose fields are declared with :func:`setting`,
 which records the default, an optional numeric range, an optional set of choices and a
-one-line doc. :func:`build` turns a nested dict (as read from TOML) into such a class,
-checking every key, type, range and choice; :func:`apply_override` parses one
-``key=value`` string (dotted keys for sections). Every failure is a ``ScenarioError``
-whose message names the key and where it came from (a file or ``--set``).
+one-line doc. Its ``__post_init__`` calls :func:`check`, which applies those rules (and the
+class's own cross-field ``_validate(where)``) however the object is made: by the loader, in
+code (``VisionSettings(threshold=300)``) or by ``dataclasses.replace``. So a settings object
+that exists is valid. :func:`build` turns a nested dict (as read from TOML) into such a
+class, checking every key and section and leaving the values to :func:`check`;
+:func:`apply_override` parses one ``key=value`` string (dotted keys for sections). Every
+failure is a ``ScenarioError`` whose message names the key (``section.key``) and where it
+came from: a file or ``--set`` when loaded, the class's name when built in code.
 
 Numbers must be finite (NaN and infinity are rejected, as is an integer too large for a
-float) and strings printable. Anything a user wrote that a message echoes (a key, a value,
+float) and strings printable. Values are normalised as the loader does: a list becomes a
+tuple, an integer given for a float becomes a float (built in code, a NumPy number or a 1-D
+array is accepted the same way). Anything a user wrote that a message echoes (a key, a value,
 a file name) is shown through :func:`escape`, so no message can carry terminal escapes.
 
 Supported field types: ``bool``, ``int``, ``float``, ``str``, ``tuple[float, ...]``,
@@ -17,8 +23,11 @@ Supported field types: ``bool``, ``int``, ``float``, ``str``, ``tuple[float, ...
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
+import functools
 import math
+import numbers
 import tomllib
 import typing
 from typing import Any
@@ -26,7 +35,8 @@ from typing import Any
 from cell.errors import ScenarioError
 
 __all__ = [
-    "apply_override", "build", "describe", "escape", "override_source", "setting", "show", "to_dict",
+    "apply_override", "build", "check", "describe", "escape", "override_source", "setting", "show",
+    "to_dict",
 ]
 
 _SHOW_MAX = 80  # characters of a value echoed in a message
@@ -130,6 +140,7 @@ def _key_text(key: Any) -> str:
     return escape(key) if isinstance(key, str) else show(key)
 
 
+@functools.cache
 def _hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
@@ -166,17 +177,19 @@ def _printable(value: str, key: str, where: str) -> str:
 
 
 def _coerce_scalar(value: Any, tp: type, meta: dict[str, Any], key: str, where: str) -> Any:
+    # (a NumPy integer or float, as code may pass, is taken as the Python number it holds)
     ok = False
     if tp is bool:
         ok = isinstance(value, bool)
     elif tp is int:
-        ok = isinstance(value, int) and not isinstance(value, bool)
+        ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+        value = int(value) if ok else value
     elif tp is float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
         value = _finite_float(value, meta, key, where) if ok else value
     elif tp is str:
         ok = isinstance(value, str)
-        value = _printable(value, key, where) if ok else value
+        value = _printable(str(value), key, where) if ok else value
     if not ok:
         raise ScenarioError(f"{where}: key '{key}' must be {_type_name(tp)}, got {_got(value)}")
     return value
@@ -201,23 +214,91 @@ def _check_value(value: Any, meta: dict[str, Any], key: str, where: str) -> None
             )
 
 
+def _sequence(value: Any) -> tuple[Any, ...] | None:
+    """``value`` as a tuple if it is a list, a tuple or a 1-D array (NumPy's), else None."""
+    if isinstance(value, (list, tuple)):
+        return tuple(value)
+    if hasattr(value, "__array__") and getattr(value, "ndim", None) == 1:
+        return tuple(value.tolist())
+    return None
+
+
 def _coerce(value: Any, tp: Any, meta: dict[str, Any], key: str, where: str) -> Any:
     if typing.get_origin(tp) is tuple:
         elem = typing.get_args(tp)[0]
-        if not isinstance(value, (list, tuple)):
+        items = _sequence(value)
+        if items is None:
             raise ScenarioError(f"{where}: key '{key}' must be {_type_name(tp)}, got {_got(value)}")
-        out = tuple(_coerce_scalar(v, elem, meta, key, where) for v in value)
+        out = tuple(_coerce_scalar(v, elem, meta, key, where) for v in items)
     else:
         out = _coerce_scalar(value, tp, meta, key, where)
     _check_value(out, meta, key, where)
     return out
 
 
+@dataclasses.dataclass
+class _Building:
+    """The object :func:`build` is constructing: where it comes from and its key prefix."""
+
+    cls: type
+    where: str
+    prefix: str
+    checked: bool = False
+
+
+_BUILDING: contextvars.ContextVar[_Building | None] = contextvars.ContextVar(
+    "cell_config_building", default=None
+)
+
+
+def check(obj: Any, section: str = "") -> None:
+    """Check and normalise every field of the settings dataclass ``obj``, in place.
+
+    Call it from the class's ``__post_init__`` with the section's name in a scenario
+    (``check(self, "vision")``; ``""`` for the top level). Each field must satisfy its
+    :func:`setting` (type, finite, printable, range, choices, length); a nested section
+    must be an instance of its class. Lists become tuples and integers given for floats
+    become floats (set on the frozen dataclass). Then the class's own ``_validate(where)``,
+    if any, checks across fields.
+
+    Raises ``ScenarioError`` naming the key as ``section.key``: prefixed by the source
+    (the file or ``--set``) when :func:`build` is constructing ``obj``, else by the class's
+    name (``VisionSettings: key 'vision.threshold' = 300 is out of range [0, 255]``).
+    """
+    building = _BUILDING.get()
+    if building is not None and building.cls is type(obj):
+        building.checked = True
+        where, prefix = building.where, building.prefix
+    else:
+        where, prefix = type(obj).__name__, f"{section}." if section else ""
+    _check_fields(obj, where, prefix)
+
+
+def _check_fields(obj: Any, where: str, prefix: str) -> None:
+    hints = _hints(type(obj))
+    for f in dataclasses.fields(obj):
+        tp, key, value = hints[f.name], prefix + f.name, getattr(obj, f.name)
+        if dataclasses.is_dataclass(tp):
+            if not isinstance(value, tp):
+                raise ScenarioError(
+                    f"{where}: section '{key}' must be {tp.__name__}, got {_got(value)}"
+                )
+            continue
+        out = _coerce(value, tp, dict(f.metadata), key, where)
+        if out is not value:
+            object.__setattr__(obj, f.name, out)  # (the frozen dataclass's own normal form)
+    cross_check = getattr(obj, "_validate", None)
+    if cross_check is not None:
+        cross_check(where)
+
+
 def build(cls: type, data: dict[str, Any], *, where: str, prefix: str = "") -> Any:
     """Validate ``data`` (a nested dict) into the settings dataclass ``cls``.
 
     ``where`` names the source (a file path) in error messages, escaped; ``prefix`` is the
-    dotted path of ``cls`` inside the scenario. Missing keys take their defaults.
+    dotted path of ``cls`` inside the scenario. Missing keys take their defaults. Keys and
+    sections are checked here; the values by :func:`check`, from the class's
+    ``__post_init__`` (or here, after construction, for a class that does not call it).
     """
     where = escape(where)
     if not isinstance(data, dict):
@@ -233,15 +314,18 @@ def build(cls: type, data: dict[str, Any], *, where: str, prefix: str = "") -> A
     kwargs = {}
     for name, value in data.items():
         tp = hints[name]
-        key = prefix + name
         if dataclasses.is_dataclass(tp):
-            kwargs[name] = build(tp, value, where=where, prefix=key + ".")
+            kwargs[name] = build(tp, value, where=where, prefix=prefix + name + ".")
         else:
-            kwargs[name] = _coerce(value, tp, dict(fields[name].metadata), key, where)
-    obj = cls(**kwargs)
-    check = getattr(obj, "_validate", None)
-    if check is not None:
-        check(where)
+            kwargs[name] = value
+    building = _Building(cls, where, prefix)
+    token = _BUILDING.set(building)
+    try:
+        obj = cls(**kwargs)
+    finally:
+        _BUILDING.reset(token)
+    if not building.checked:  # a settings class whose __post_init__ does not call check
+        _check_fields(obj, where, prefix)
     return obj
 
 

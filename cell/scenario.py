@@ -28,7 +28,7 @@ from typing import Any
 
 from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
-from cell.config import apply_override, build, override_source, setting, show
+from cell.config import apply_override, build, check, override_source, setting, show
 from cell.errors import ScenarioError
 from cell.files import input_path, read_toml_file
 from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
@@ -61,6 +61,9 @@ class PartsSettings:
         0.04, lo=0.0, hi=0.06, doc="spawn offset across the belt, uniform in +-range (m)"
     )
 
+    def __post_init__(self) -> None:
+        check(self, "parts")  # every field, however the object was made
+
     def _validate(self, where: str) -> None:
         for key, value in (("parts.kinds", self.kinds), ("parts.materials", self.materials)):
             if not value:
@@ -76,12 +79,18 @@ class ConveyorSettings:
         doc="index: stop when a part breaks the light barrier; continuous: never stop",
     )
 
+    def __post_init__(self) -> None:
+        check(self, "conveyor")  # every field, however the object was made
+
 
 @dataclass(frozen=True)
 class CameraSettings:
     width: int = setting(640, lo=16, hi=4096, doc="image width (pixels)")
     height: int = setting(480, lo=16, hi=4096, doc="image height (pixels)")
     fovy: float = setting(40.0, lo=5.0, hi=120.0, doc="overhead camera vertical field of view (deg)")
+
+    def __post_init__(self) -> None:
+        check(self, "camera")  # every field, however the object was made
 
 
 @dataclass(frozen=True)
@@ -92,6 +101,9 @@ class SensorSettings:
         (0.0, 0.0, 0.0, 0.0, 0.0), lo=-1.0, hi=1.0, length=5, doc="k1, k2, p1, p2, k3"
     )
     bits: int = setting(8, lo=1, hi=8, doc="bit depth per channel")
+
+    def __post_init__(self) -> None:
+        check(self, "sensor")  # every field, however the object was made
 
 
 @dataclass(frozen=True)
@@ -110,11 +122,17 @@ class Scenario:
     sort: SortSettings = setting(SortSettings())
     faults: FaultSettings = setting(FaultSettings())
 
+    def __post_init__(self) -> None:
+        check(self)  # every field, however the object was made
+
 
 def scenario_from_dict(
     data: dict[str, Any], *, where: str = "<dict>", overrides: tuple[str, ...] | list[str] = ()
 ) -> Scenario:
     """Validate a nested dict (and ``key=value`` overrides) into a ``Scenario``."""
+    if isinstance(overrides, str | bytes):  # (it was read character by character)
+        raise ScenarioError(f"overrides: expected a list of 'key=value' strings, got the "
+                            f"string {show(overrides)}: put it in a list")
     scenario = build(Scenario, data, where=where)
     for assignment in overrides:  # validated one by one so an error names its --set
         data = apply_override(data, assignment, Scenario)

@@ -346,3 +346,8 @@ def test_an_ik_tolerance_finer_than_the_solver_reaches_is_refused():
     # (1e-7 m was valid: every pick then failed; the solver settles 2-5 um off its target)
     with pytest.raises(ScenarioError, match=r"robot.ik_tolerance"):
         scenario_from_dict({}, overrides=["robot.ik_tolerance=1e-7"])
+
+
+def test_overrides_given_as_one_string_are_refused_saying_so():
+    with pytest.raises(ScenarioError, match=r"overrides: expected a list .* put it in a list"):
+        scenario_from_dict({}, overrides="parts.count=4")

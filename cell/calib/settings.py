@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.errors import ScenarioError
 
 __all__ = ["CalibrationSettings"]
@@ -89,6 +89,9 @@ class CalibrationSettings:
         "2 by default: on its views of the small tool plate the tangential terms trade against "
         "the principal point (README, Calibration)",
     )
+
+    def __post_init__(self) -> None:
+        check(self, "calibration")  # every field, however the object was made
 
     def _validate(self, where: str) -> None:
         nx, ny = self.board_inner_corners

@@ -2,10 +2,11 @@
 
 A detector is any object with ``detect(image, camera) -> list[Detection]`` (image uint8
 RGB (H, W, 3), camera a :class:`~cell.camera.CameraModel`). A user's class is built with
-the scenario's :class:`~cell.vision.settings.VisionSettings` when its constructor takes
-a positional argument, else with none (keyword-only and ``**kwargs`` parameters are left
-to their defaults). ``examples/threshold_detector.py`` is such a class built
-from the syllabus functions.
+the scenario's :class:`~cell.vision.settings.VisionSettings` when its constructor's first
+parameter asks for it (named ``settings``, or positional with no default), else with none
+(a ``min_area=60`` stays 60; keyword-only and ``**kwargs`` parameters keep their
+defaults). ``examples/threshold_detector.py`` is such a class built from the syllabus
+functions.
 
 A user's detector is called through :class:`CheckedDetector`: whatever its ``detect``
 raises becomes a ``JobError`` naming it, and what it returns must be what ours returns, a
@@ -62,7 +63,7 @@ def load_detector(settings: VisionSettings) -> object:
         raise JobError(f"vision.detector {shown}: class {escape(repr(class_name))} has no "
                        "detect(image, camera) method")
     try:
-        detector = cls(settings) if _takes_positional(cls) else cls()
+        detector = cls(settings) if _wants_settings(cls) else cls()
     except CellError:
         raise
     except Exception as exc:
@@ -71,11 +72,19 @@ def load_detector(settings: VisionSettings) -> object:
     return CheckedDetector(name, detector)
 
 
-def _takes_positional(cls: type) -> bool:
-    """Whether ``cls(x)`` passes ``x`` to a parameter of its constructor."""
-    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD,
-                  inspect.Parameter.VAR_POSITIONAL)
-    return any(p.kind in positional for p in inspect.signature(cls).parameters.values())
+def _wants_settings(cls: type) -> bool:
+    """Whether ``cls``'s constructor asks for the settings: its first parameter is named
+    ``settings``, or takes a positional argument and has no default (``*args`` too)."""
+    params = list(inspect.signature(cls).parameters.values())
+    if not params:
+        return False
+    first = params[0]
+    if first.name == "settings" and first.kind != inspect.Parameter.KEYWORD_ONLY:
+        return True
+    if first.kind == inspect.Parameter.VAR_POSITIONAL:
+        return True
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    return first.kind in positional and first.default is inspect.Parameter.empty
 
 
 @dataclass(frozen=True, eq=False)

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from cell.catalogue import LIGHTING_PRESETS
-from cell.config import setting
+from cell.config import check, setting
 from cell.errors import ScenarioError
 
 __all__ = ["CaptureSettings", "FaultSettings", "SortSettings"]
@@ -35,6 +35,9 @@ class CaptureSettings:
         doc="lighting presets of the captures, in order (empty: the scenario's 'lighting'); "
         "with two, the outline and position come from the first, the material from the second",
     )
+
+    def __post_init__(self) -> None:
+        check(self, "capture")  # every field, however the object was made
 
     def _validate(self, where: str) -> None:
         if len(self.presets) > 2:
@@ -73,6 +76,9 @@ class SortSettings:
         (-0.12, 0.12), lo=-0.3, hi=0.3, length=2,
         doc="the stretch of belt the arm picks from, along x from the pick zone (m)")
 
+    def __post_init__(self) -> None:
+        check(self, "sort")  # every field, however the object was made
+
     def _validate(self, where: str) -> None:
         lo, hi = self.pick_window
         if lo >= hi:
@@ -98,6 +104,9 @@ class FaultSettings:
         "others upside down")
     touching: tuple[int, ...] = setting(
         (), lo=2, hi=200, doc="part numbers (from 2) spawned touching the part before them")
+
+    def __post_init__(self) -> None:
+        check(self, "faults")  # every field, however the object was made
 
     def _validate(self, where: str) -> None:
         for key in ("blackout", "conveyor_stop"):

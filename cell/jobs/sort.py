@@ -87,16 +87,26 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
              commit_replay: bool = True, calibration_progress: Progress | None = None) -> SortRun:
     """Run the sort job of ``scenario``; returns a :class:`SortRun`.
 
-    ``calibration``: a ``CalibrationFile``, a path to one, or None to calibrate the
-    overhead camera first (its figures go into the report). ``replay``: write a rerun
+    ``calibration``: a ``CalibrationFile``, a path to one, a ``CalibrationRun`` (its
+    calibration), or None to calibrate the overhead camera first (its figures go into
+    the report). ``replay``: write a rerun
     recording there; with ``commit_replay`` False it is finished but left under its
     temporary name, and ``SortRun.replay`` must be committed (or aborted) by the caller
     once its other outputs are written. ``progress(done, total, note)`` follows the parts and
     ``calibration_progress`` (the same form) the calibration's views.
     """
     from cell.calib.calfile import CalibrationFile, load_calibration
+    from cell.calib.job import CalibrationRun
     from cell.jobs.detectors import load_detector
 
+    if not isinstance(scenario, Scenario):
+        raise JobError(f"run_sort: argument 'scenario': expected a Scenario (cell.scenario."
+                       f"load_scenario or scenario_from_dict), got {type(scenario).__name__}")
+    if isinstance(calibration, CalibrationRun):
+        calibration = calibration.calibration
+    if not (calibration is None or isinstance(calibration, CalibrationFile | str | Path)):
+        raise JobError(f"run_sort: argument 'calibration': expected a CalibrationFile, a path "
+                       f"to one, a CalibrationRun or None, got {type(calibration).__name__}")
     t_start = time.perf_counter()
     detector = load_detector(scenario.vision)  # (a bad one fails before the calibration)
     report_cal: dict = {}

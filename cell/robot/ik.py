@@ -120,7 +120,7 @@ class ArmIK:
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """TCP position (3,) m and ``R_world_tool`` (3, 3) at joint angles ``q``."""
         d = self.data
-        d.qpos[:] = q
+        d.qpos[:] = finite_vector("q", q, 6, RobotError)
         mujoco.mj_kinematics(self.model, d)
         site = d.site(_PREFIX + "tcp")
         return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
@@ -129,7 +129,7 @@ class ArmIK:
         """Name of the first arm link nearer than ``clearance`` (m) to the furniture at
         ``q``, or None."""
         m, d = self.model, self.data
-        d.qpos[:] = q
+        d.qpos[:] = finite_vector("q", q, 6, RobotError)
         mujoco.mj_kinematics(m, d)
         fromto = np.zeros(6)
         for a in self._link_ids:

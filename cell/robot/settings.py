@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cell.config import setting
+from cell.config import check, setting
 
 __all__ = ["RobotSettings"]
 
@@ -63,3 +63,6 @@ class RobotSettings:
         doc="IK position tolerance (m; the solver settles 2-5 um off: its posture task); orientation x10 rad",
     )
     ik_max_iterations: int = setting(60, lo=1, hi=1000, doc="IK iterations before giving up")
+
+    def __post_init__(self) -> None:
+        check(self, "robot")  # every field, however the object was made

@@ -19,6 +19,7 @@ those to a 0 at either end of the table.
 from __future__ import annotations
 
 import math
+import os
 import sys
 from dataclasses import dataclass
 
@@ -26,6 +27,7 @@ import mujoco
 import numpy as np
 
 from cell.camera import CameraModel
+from cell.errors import SimError
 from cell.sim import layout
 from cell.sim.parts import COLLISION_GROUP
 from cell.sim.sensor import SensorModel
@@ -122,7 +124,16 @@ class CameraRig:
         self.sensor = sensor
         self.part_of_geom = part_of_geom
         self._lut = part_lut(part_of_geom)
-        self._renderer = mujoco.Renderer(model, sensor.height, sensor.width)
+        try:
+            self._renderer = mujoco.Renderer(model, sensor.height, sensor.width)
+        except mujoco.FatalError as exc:
+            if "OpenGL platform library has not been loaded" not in str(exc):
+                raise
+            raise SimError(
+                "MuJoCo cannot render: it chose its OpenGL backend when it was imported, "
+                f"before MUJOCO_GL was set (now {os.environ.get('MUJOCO_GL')!r}); set "
+                "MUJOCO_GL=egl in the environment, or import cell before mujoco (and mink)"
+            ) from None
         self._option = mujoco.MjvOption()
         self._option.geomgroup[COLLISION_GROUP] = 0
         self._option.sitegroup[:] = 0

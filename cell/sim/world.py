@@ -67,6 +67,9 @@ class World:
 
     def __init__(self, scenario: Scenario, *, arm: bool = True,
                  flange_board: bool = False, msaa: int = 0) -> None:
+        if not isinstance(scenario, Scenario):
+            raise SimError(f"World: argument 'scenario': expected a Scenario (cell.scenario."
+                           f"load_scenario or scenario_from_dict), got {type(scenario).__name__}")
         if flange_board and not arm:
             raise SimError("the flange board needs the arm: build with arm=True")
         if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or \
@@ -256,9 +259,10 @@ class World:
         spawned yet), a bin's name (resting in it and parked, or inside it now), ``caught``
         (fell off the belt's end), ``belt`` (on the belt) or ``elsewhere`` (the table, the
         floor, a bin's rim, the cup)."""
+        part = self._part(part_id)
         if part_id > self.spawned:
             return "waiting"
-        return self.stage.place_of(self.parts[part_id - 1])
+        return self.stage.place_of(part)
 
     def belt_encoder(self) -> float:
         """The belt's encoder: metres run since the start, in 0.1 mm counts."""
@@ -291,6 +295,11 @@ class World:
         """
         if self.spawned >= len(self.parts):
             raise SimError(f"all {len(self.parts)} parts of the run are already spawned")
+        for name, value in (("x", x), ("y", y), ("yaw", yaw)):
+            if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating) \
+                    or not math.isfinite(value) or abs(value) > 1e3:
+                raise SimError(f"place_next_part: {name} must be a finite number within 1000 "
+                               f"(m, rad), got {value!r}")
         part = self.parts[self.spawned]
         self.spawned += 1
         on_belt = abs(y - layout.CONVEYOR_Y) < layout.BELT_WIDTH / 2 and (
@@ -317,13 +326,21 @@ class World:
 
     def part_pose(self, part_id: int) -> tuple[np.ndarray, np.ndarray]:
         """GROUND TRUTH, for scoring only: position (3,) metres and quaternion wxyz (4,)."""
-        body = self.parts[part_id - 1].body_id
+        body = self._part(part_id).body_id
         return self.data.xpos[body].copy(), self.data.xquat[body].copy()
 
     def part_yaw(self, part_id: int) -> float:
         """GROUND TRUTH, for scoring only: heading of the part's x axis (rad, -pi..pi)."""
-        R = self.data.xmat[self.parts[part_id - 1].body_id].reshape(3, 3)
+        R = self.data.xmat[self._part(part_id).body_id].reshape(3, 3)
         return math.atan2(R[1, 0], R[0, 0])
+
+    def _part(self, part_id: int) -> PartInfo:
+        """Part ``part_id`` (1..len(parts)); a ``SimError`` naming the valid ids otherwise (an
+        id of 0 or below read another part's truth, counted from the end)."""
+        if isinstance(part_id, bool) or not isinstance(part_id, int | np.integer) \
+                or not 1 <= part_id <= len(self.parts):
+            raise SimError(f"part id {part_id!r}: the run's parts are 1 to {len(self.parts)}")
+        return self.parts[int(part_id) - 1]
 
     # --- light and cameras ------------------------------------------------------------
     def set_lighting(self, name: str) -> None:
@@ -380,3 +397,9 @@ class World:
         for rig in self._rigs.values():
             rig.close()
         self._rigs.clear()
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()

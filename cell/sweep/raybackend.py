@@ -13,7 +13,12 @@ retries a task whose worker died (three times); after that the sweep stops with 
 from __future__ import annotations
 
 import logging
+import os
+import signal
+import sys
+import threading
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
 from cell.config import escape
 from cell.sweep.errors import SweepError
@@ -46,6 +51,7 @@ class RayPool:
         self._ray = None
         self._task = None
         self._started = False
+        self._before: _ProcessState | None = None  # what ray.init changes, to put back
 
     def __enter__(self) -> RayPool:
         self.start()
@@ -58,20 +64,24 @@ class RayPool:
         """Start a local Ray instance or join the cluster (once)."""
         if self._ray is not None:
             return
+        before = _ProcessState.now()  # (importing Ray changes the process already)
         ray = import_ray()
         if not ray.is_initialized():
             options = {"include_dashboard": False, "log_to_driver": False,
                        "logging_level": logging.ERROR}
+            self._before = before
             try:
                 if self.address is None:
                     ray.init(num_cpus=self.workers, **options)
                 else:
                     ray.init(address=self.address, **options)
             except Exception as exc:  # ConnectionError, ValueError, RuntimeError, ...
+                self._before.restore()
                 where = "start a local Ray instance" if self.address is None else \
                     f"join the Ray cluster at {escape(repr(self.address))}"
                 raise SweepError(f"--backend ray: cannot {where}: {escape(type(exc).__name__)}: "
                                  f"{escape(' '.join(str(exc).split())[:300])}") from None
+            self._before.restore_signals()  # (Ctrl-C and SIGTERM stay the command's)
             self._started = True
         self._ray = ray
         self._task = ray.remote(num_cpus=1, max_calls=self.recycle)(run_chunk)
@@ -82,7 +92,9 @@ class RayPool:
         """Shut Ray down if :meth:`start` started it."""
         if self._started and self._ray is not None:
             self._ray.shutdown()
-        self._ray, self._task, self._started = None, None, False
+            if self._before is not None:
+                self._before.restore()
+        self._ray, self._task, self._started, self._before = None, None, False, None
 
     def run(self, chunks: Iterable[Chunk], on_outcomes: Callable[[tuple[Outcome, ...]], None]) -> None:
         """Run every chunk; ``on_outcomes`` is called in this thread as each one finishes."""
@@ -114,3 +126,34 @@ class RayPool:
             for ref in flying:
                 ray.cancel(ref, force=True)
             raise
+
+
+@dataclass(frozen=True)
+class _ProcessState:
+    """What ``ray.init`` changes in the driver's process and leaves so after ``shutdown``:
+    the environment (``RAY_*``, ``PYTHONBREAKPOINT`` pointing at Ray's debugger, which
+    turns a later ``breakpoint()`` into an error line), ``sys.excepthook`` and the SIGINT
+    and SIGTERM handlers."""
+
+    environ: dict
+    excepthook: object
+    handlers: dict
+
+    @classmethod
+    def now(cls) -> _ProcessState:
+        handlers = {}
+        if threading.current_thread() is threading.main_thread():
+            handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+        return cls(dict(os.environ), sys.excepthook, handlers)
+
+    def restore_signals(self) -> None:
+        for s, handler in self.handlers.items():
+            if handler is not None:
+                signal.signal(s, handler)
+
+    def restore(self) -> None:
+        for key in set(os.environ) - set(self.environ):
+            del os.environ[key]
+        os.environ.update(self.environ)
+        sys.excepthook = self.excepthook
+        self.restore_signals()

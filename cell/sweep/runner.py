@@ -59,6 +59,19 @@ class SweepOptions:
     chunk_runs: int = 24
     report: bool = True
 
+    def __post_init__(self) -> None:
+        if self.backend not in BACKENDS:
+            raise SweepError(f"SweepOptions: backend {self.backend!r} unknown; valid: "
+                             f"{', '.join(BACKENDS)}")
+        for name, lo in (("workers", 1), ("recycle", 1), ("chunk_runs", 1)):
+            value = getattr(self, name)
+            if value is None and name == "workers":
+                continue
+            if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+                raise SweepError(f"SweepOptions: {name} must be an integer >= {lo}"
+                                 f"{' (or None: every CPU)' if name == 'workers' else ''}, got "
+                                 f"{value!r}")
+
 
 @dataclass(frozen=True)
 class SweepRun:
@@ -117,7 +130,8 @@ def make_backend(options: SweepOptions):
 
 
 def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | None = None) -> SweepRun:
-    """Run the runs of ``plan`` not yet in ``out``/results.csv (see the module docstring).
+    """Run the runs of ``plan`` not yet in ``out``/results.csv (see the module docstring);
+    ``out`` must exist (:func:`run_sweep` makes it).
 
     ``backend``: a started backend to use (left running); default: one made from
     ``options``, closed at the end."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from cell.config import escape, setting
+from cell.config import check, escape, setting
 from cell.errors import ScenarioError
 
 __all__ = ["SEGMENTATIONS", "VisionSettings"]
@@ -136,6 +136,9 @@ class VisionSettings:
     min_kind_confidence: float = setting(
         0.5, lo=0.0, hi=1.0, doc="below this kind confidence the kind is reported 'unknown'"
     )
+
+    def __post_init__(self) -> None:
+        check(self, "vision")  # every field, however the object was made
 
     def _validate(self, where: str) -> None:
         if self.detector != "parts" and not _DETECTOR_NAME.fullmatch(self.detector):

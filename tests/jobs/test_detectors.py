@@ -97,3 +97,25 @@ def test_a_constructor_with_keyword_parameters_only_is_called_with_none(fake):
 
 def test_a_constructor_with_a_positional_parameter_gets_the_settings(fake):
     assert isinstance(fake(_Settings).detector.settings, VisionSettings)
+
+
+class _Tunable:
+    def __init__(self, min_area=60):
+        self.min_area = min_area
+
+    def detect(self, image, camera):
+        return []
+
+
+class _OptionalSettings:
+    def __init__(self, settings=None):
+        self.settings = settings
+
+    def detect(self, image, camera):
+        return []
+
+
+def test_an_optional_first_parameter_keeps_its_default_unless_named_settings(fake):
+    # (min_area=60 was given the VisionSettings: any positional parameter took them)
+    assert fake(_Tunable).detector.min_area == 60
+    assert isinstance(fake(_OptionalSettings).detector.settings, VisionSettings)

@@ -225,3 +225,12 @@ def test_the_replay_logs_poses_every_40_ms_and_the_lost_picks(calibration, tmp_p
     assert times[-1] >= report["metrics"]["sim_time_s"] - 0.04
     assert any(": lost: " in e for e in events)
     assert sum(e.startswith("part ") for e in events) == report["accounting"]["spawned"]
+
+
+def test_run_sort_names_an_argument_of_the_wrong_type():
+    from cell.errors import JobError
+
+    with pytest.raises(JobError, match="argument 'scenario': expected a Scenario"):
+        run_sort({"seed": 1})
+    with pytest.raises(JobError, match="argument 'calibration': expected a CalibrationFile"):
+        run_sort(load_scenario(SCENARIOS / "sort.toml"), calibration=42)

@@ -97,3 +97,14 @@ def test_choose_tool_yaw_refuses_what_is_no_yaw_or_order(args, culprit):
     with pytest.raises(RobotError, match=f"argument '{culprit}'") as info:
         choose_tool_yaw(*args)
     assert not isinstance(info.value, MotionError)
+
+
+def test_fk_and_the_collision_check_refuse_joints_that_are_not_six_numbers(ik):
+    # (collides(NaN) answered None, read as "no collision"; fk(NaN) gave a NaN pose)
+    from cell.errors import RobotError
+
+    for bad in (np.full(6, np.nan), np.zeros(5)):
+        with pytest.raises(RobotError, match="argument 'q'"):
+            ik.fk(bad)
+        with pytest.raises(RobotError, match="argument 'q'"):
+            ik.collides(bad)

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import mujoco
 import numpy as np
+import pytest
 
 from cell.catalogue import KINDS
 from cell.sim import layout
@@ -89,3 +94,19 @@ def test_segmentation_maps_mujocos_raw_ids_to_part_ids(world_factory):
     expected = np.where(is_geom, rig.part_of_geom[np.clip(obj, 0, None)], 0)
     assert np.array_equal(rig.part_ids(raw), expected)
     assert set(np.unique(rig.render_seg(world.data))) == {0} | {p.id for p in world.parts}
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="headless GL as on Linux")
+def test_mujoco_imported_before_cell_is_a_sim_error_that_says_what_to_do():
+    # (a bare mujoco.FatalError: MuJoCo picks its GL backend on import, before cell sets
+    # MUJOCO_GL=egl; notebooks often import mujoco, or mink, first)
+    code = ("import mujoco, cell\n"
+            "from cell.scenario import scenario_from_dict\nfrom cell.sim.world import World\n"
+            "from cell.errors import SimError\n"
+            "w = World.build(scenario_from_dict({}), arm=False)\n"
+            "try:\n    w.render()\nexcept SimError as e:\n    print(e)\n")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "DISPLAY", "WAYLAND_DISPLAY")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         timeout=120)
+    assert "set MUJOCO_GL=egl in the environment, or import cell before mujoco" in out.stdout, out

@@ -1,10 +1,16 @@
-"""One seed makes one run; the world's parts follow the scenario."""
+"""One seed makes one run; the world's parts follow the scenario; misuse is a SimError."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 
 from cell.catalogue import MATERIALS
+from cell.errors import SimError
+from cell.scenario import scenario_from_dict
+from cell.sim.world import World
 
 
 def _run(world_factory, seed: int):
@@ -44,3 +50,23 @@ def test_rendering_more_frames_does_not_change_the_part_sequence(world_factory):
     b.step(2000)
     for i in (1, 2, 3):
         assert np.allclose(a.part_pose(i)[0], b.part_pose(i)[0])
+
+
+def test_misuse_is_a_sim_error_naming_the_argument(world_factory):
+    # (a dict for a scenario was an AttributeError; part 0 read the last part's truth; a
+    # NaN placement made MuJoCo reset the whole simulation with a warning on stdout)
+    with pytest.raises(SimError, match="argument 'scenario': expected a Scenario"):
+        World.build({"seed": 1})
+    world = world_factory(parts={"count": 2})
+    for bad in (0, -1, 3, 1.0, True):
+        with pytest.raises(SimError, match=r"the run's parts are 1 to 2"):
+            world.part_pose(bad)
+    with pytest.raises(SimError, match="x must be a finite number"):
+        world.place_next_part(math.nan, 0.45, 0.0)
+    assert world.spawned == 0
+
+
+def test_a_world_is_a_context_manager():
+    with World.build(scenario_from_dict({"parts": {"count": 1}}), arm=False) as world:
+        world.render(depth=False, seg=False)
+    assert world._rigs == {}

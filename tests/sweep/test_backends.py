@@ -209,3 +209,16 @@ def test_a_bug_in_a_run_stops_the_sweep_naming_the_run(monkeypatch):
     with pytest.raises(ZeroDivisionError) as info:
         run_tasks(Chunk("fake", (Task("r1", "good", None), Task("r2", "bug", None))))
     assert any("run r2 (job 'fake')" in note and "--resume" in note for note in info.value.__notes__)
+
+
+def test_ray_leaves_the_callers_process_as_it_was(monkeypatch):
+    # (after a Ray sweep PYTHONBREAKPOINT pointed at Ray's debugger, so breakpoint() only
+    # logged an error; Ray's excepthook and RAY_* variables stayed)
+    from cell.sweep.raybackend import RayPool
+
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
+    env, hook = dict(os.environ), sys.excepthook
+    term = signal.getsignal(signal.SIGTERM)
+    with RayPool(1):
+        assert signal.getsignal(signal.SIGTERM) is term  # (the command's own, meanwhile too)
+    assert dict(os.environ) == env and sys.excepthook is hook

@@ -119,3 +119,16 @@ def test_a_missing_ray_is_refused_before_the_output_folder_is_made(tmp_path):
                        cwd=ROOT, env=env, timeout=300)
     _one_error(r, "--backend ray needs Ray")
     assert not (tmp_path / "o").exists()
+
+
+def test_sweep_options_made_in_code_are_checked_before_anything_is_written():
+    # (workers=-1 raised a raw ValueError after creating the output folder; 0 meant all CPUs)
+    import pytest
+
+    from cell.sweep.errors import SweepError
+    from cell.sweep.runner import SweepOptions
+
+    for bad in ({"workers": 0}, {"workers": -1}, {"workers": 2.5}, {"backend": "dask"},
+                {"chunk_runs": 0}):
+        with pytest.raises(SweepError, match="SweepOptions: "):
+            SweepOptions(**bad)

@@ -57,3 +57,18 @@ def test_edges_on_one_setting_names_no_too_low_or_too_high():
            "outline_closed": 0.9, "clutter": 0.05}
     heads = edges.build([row], None).headlines
     assert not any("too low" in h for h in heads), heads
+
+
+def test_a_report_leaves_the_callers_matplotlib_backend_alone():
+    # (it called matplotlib.use("Agg"): a notebook's inline plots stopped showing)
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; matplotlib.use('svg'); import matplotlib.pyplot as plt; "
+            "f = plt.figure(); from cell.sweep.reports import lighting; "
+            "rows = [{'job': 'detect', 'lighting': 'front', 'recall': 1.0, 'kind_accuracy': 1.0, "
+            "'material_accuracy': 1.0, 'material_unknown': 0.0, 'position_error_mm_mean': 0.1}]; "
+            "r = lighting.build(rows, None); assert r.plots and r.plots[0].png[:4] == b'\\x89PNG'; "
+            "print(matplotlib.get_backend(), plt.get_fignums())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["svg", "[1]"]

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 from cell.sweep.errors import SweepError
 from cell.sweep.jobs.detect import prepare, scene_key  # the detect job's scene (its gap_mm)
@@ -53,6 +53,10 @@ class Settings:
                           "OpenCV's default) or 444 (full resolution)")
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
+
 
 
 def encode(image: np.ndarray, settings: Settings) -> bytes:

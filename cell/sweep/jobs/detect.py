@@ -22,7 +22,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 
 __all__ = ["METRICS", "TIMINGS", "Settings", "detect_all", "measure", "prepare",
@@ -40,6 +40,10 @@ class Settings:
 
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
+
 
 
 def scene_key(scenario: Scenario, settings: Settings) -> tuple:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 from cell.sweep.jobs.detect import prepare, scene_key  # the detect job's scene (its gap_mm)
 
@@ -48,6 +48,10 @@ class Settings:
     tolerance_px: float = setting(2.0, lo=0.0, hi=20.0, doc="an edge this near a true outline is on it (px)")
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
+
 
 
 def closed_outline(edges: np.ndarray, part: np.ndarray, *, max_gap: int) -> bool:

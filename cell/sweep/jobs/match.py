@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 
 __all__ = ["METHODS", "METRICS", "TIMINGS", "Settings", "find", "measure", "perturb", "prepare", "scene_key"]
@@ -51,6 +51,10 @@ class Settings:
     pad_px: int = setting(4, lo=0, hi=100, doc="margin of a template around its part (px)")
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
+
 
 
 def scene_key(scenario: Scenario, settings: Settings) -> tuple:

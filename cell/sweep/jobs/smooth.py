@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 from cell.sweep.jobs.detect import prepare, scene_key  # the detect job's scene (its gap_mm)
 
@@ -40,6 +40,9 @@ class Settings:
     ksize: int = setting(3, lo=3, hi=15, doc="kernel size (px, odd)")
     gap_mm: float = setting(4.0, lo=0.0, hi=100.0,
                             doc="least gap between two parts' bounding circles in the scene (mm)")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
 
     def _validate(self, where: str) -> None:
         from cell.errors import ScenarioError

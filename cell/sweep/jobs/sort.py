@@ -25,7 +25,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 from cell.catalogue import LIGHTING_PRESETS
-from cell.config import setting
+from cell.config import check, setting
 from cell.scenario import Scenario
 
 __all__ = ["METRICS", "TIMINGS", "Settings", "calibration_scenario", "measure", "prepare", "scene_key"]
@@ -49,6 +49,10 @@ class Settings:
                                     doc="seed of the overhead camera's calibration the runs share")
     calibration_lighting: str = setting("front", choices=tuple(LIGHTING_PRESETS),
                                         doc="the lighting preset the cell is calibrated under")
+
+    def __post_init__(self) -> None:
+        check(self, "job")  # (built in code too: cell.config.check)
+
 
 
 def calibration_scenario(scenario: Scenario, settings: Settings) -> Scenario:

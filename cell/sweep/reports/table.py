@@ -91,21 +91,18 @@ def markdown(header: list[str], body: list[list[str]]) -> str:
 
 
 def figure(nrows: int = 1, ncols: int = 1, *, size: tuple[float, float] = (7.0, 4.2)):
-    """A new matplotlib figure and its axes (Agg backend)."""
-    import matplotlib
+    """A new matplotlib figure and its axes: a ``Figure`` of its own, outside pyplot, so
+    the caller's backend and open figures are left as they were (a notebook's inline
+    plots: ``matplotlib.use("Agg")`` switched them off)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt.subplots(nrows, ncols, figsize=size, squeeze=False)
+    fig = Figure(figsize=size)
+    return fig, fig.subplots(nrows, ncols, squeeze=False)
 
 
 def png(fig) -> bytes:
-    """The figure as PNG bytes (100 dpi), and the figure closed."""
-    import matplotlib.pyplot as plt
-
+    """The figure as PNG bytes (100 dpi; the Agg renderer, whatever the backend)."""
     buf = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buf, format="png", dpi=100, metadata={"Software": None})
-    plt.close(fig)
     return buf.getvalue()

@@ -34,6 +34,7 @@ same recording to the viewer.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -282,11 +283,13 @@ def _temporary_beside(path: Path) -> str:
 
 
 def _discard(rec: rr.RecordingStream, tmp: str) -> None:
-    """Close the stream's file and remove it (abort, or a replay never closed)."""
+    """Close the stream's file and remove it (abort, or a replay never closed). A folder
+    that turned read-only keeps it: the error that stopped the run says what went wrong."""
     try:
         rec.disconnect()
     finally:
-        Path(tmp).unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            Path(tmp).unlink(missing_ok=True)
 
 
 def _moving_bodies(m: mujoco.MjModel) -> np.ndarray:

@@ -80,9 +80,11 @@ def _seconds(text: str) -> float:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = Parser(prog="cell snapshot", description=__doc__.splitlines()[0])
+    p = Parser(prog="cell snapshot", description=__doc__.splitlines()[0].replace("``", ""))
     p.add_argument("scenario", help="scenario TOML file")
-    p.add_argument("--camera", default="overhead", choices=("overhead", "wrist"))
+    p.add_argument("--camera", default="overhead", choices=("overhead", "wrist"),
+                   help="the camera whose view is saved (default overhead; the wrist camera "
+                   "looks from the arm's home pose)")
     p.add_argument("--seed", type=int_in(int(_SEED["lo"]), int(_SEED["hi"])), default=None, metavar="N",
                    help=f"override the scenario's seed ({_SEED['lo']} to {_SEED['hi']})")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
@@ -93,7 +95,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True,
                    help="output folder: created, or replaced as a whole if it holds only the "
                         "files of an earlier snapshot")
-    p.add_argument("--save-xml", action="store_true", help="also write the compiled model as cell.xml")
+    p.add_argument("--save-xml", action="store_true",
+                   help="also write the model as built as cell.xml (geometry, cameras, every part "
+                   "at its waiting slot, lights off: not the snapshot's state, which truth.json holds)")
     return p
 
 

@@ -330,7 +330,8 @@ class World:
         return self.data.xpos[body].copy(), self.data.xquat[body].copy()
 
     def part_yaw(self, part_id: int) -> float:
-        """GROUND TRUTH, for scoring only: heading of the part's x axis (rad, -pi..pi)."""
+        """GROUND TRUTH, for scoring only: heading of the part's x axis (rad, -pi..pi; not
+        folded by the kind's symmetry)."""
         R = self.data.xmat[self._part(part_id).body_id].reshape(3, 3)
         return math.atan2(R[1, 0], R[0, 0])
 

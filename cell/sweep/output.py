@@ -2,7 +2,8 @@
 
 ``--out DIR`` is created when missing. An existing folder may hold only what a sweep
 writes there (``results.csv``, ``summary.md``, ``*.png`` and the temporary files of an
-interrupted write, which are removed once ``results.csv`` is accepted); one holding
+interrupted write, which are removed once ``results.csv`` is accepted); one sweep at a time
+writes to a folder (:func:`sweep_lock`); one holding
 ``results.csv`` is continued only with ``--resume``; each file this sweep will write that
 is already there must be a plain file (not a folder, a link or a device), checked before
 any run. Plots and the summary are
@@ -12,16 +13,19 @@ written through a temporary name beside the target, fsynced and renamed into pla
 
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import stat
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from cell.config import escape
 from cell.files import atomic_write_bytes
 from cell.sweep.errors import SweepError
 
-__all__ = ["RESULTS", "prepare_out", "remove_temporaries", "write_atomic"]
+__all__ = ["RESULTS", "prepare_out", "remove_temporaries", "sweep_lock", "write_atomic"]
 
 RESULTS = "results.csv"
 _OUTPUT = re.compile(r"results\.csv|summary\.md|[A-Za-z0-9_.-]+\.png")
@@ -53,12 +57,34 @@ def prepare_out(arg: str, *, resume: bool, files: tuple[str, ...] = (RESULTS,)) 
         elif path.is_symlink():
             raise SweepError(f"{shown}: a symbolic link to nothing (or a loop); name a folder")
         else:
-            path.mkdir(parents=True)
+            path.mkdir(parents=True, exist_ok=True)  # (another sweep may make it meanwhile)
         if not os.access(path, os.W_OK | os.X_OK):
             raise SweepError(f"{shown}: cannot be written (no permission)")
     except OSError as exc:
         raise SweepError(f"{shown}: cannot be used: {escape(exc.strerror or str(exc))}") from None
     return path
+
+
+@contextmanager
+def sweep_lock(path: Path) -> Iterator[None]:
+    """Hold the sweep's lock on the output folder ``path`` meanwhile (``fcntl.flock`` on the
+    folder itself: no file is made, and the system frees it when the process ends, however
+    it ends). A ``SweepError`` when another sweep holds it: two sweeps writing one
+    ``results.csv`` ran every run twice and left a file no ``--resume`` would take."""
+    shown = f"--out {escape(repr(str(path)))}"
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError as exc:
+        raise SweepError(f"{shown}: cannot be used: {escape(exc.strerror or str(exc))}") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise SweepError(f"{shown}: another cell sweep is writing there now; wait for it to "
+                             "end (then --resume), or name another folder") from None
+        yield
+    finally:
+        os.close(fd)  # (releases the lock)
 
 
 def remove_temporaries(path: Path) -> None:

@@ -18,6 +18,7 @@ round-trip text (never NaN: figures are checked before), lists as JSON.
 from __future__ import annotations
 
 import codecs
+import contextlib
 import csv
 import io
 import json
@@ -105,7 +106,10 @@ class Results:
         self.done.add(str(row["run_id"]))
 
     def close(self) -> None:
-        self._file.close()
+        """Close the file. A flush that fails again (a full disk: the error that stopped the
+        sweep was already raised) loses only the half row it held, which ``--resume`` drops."""
+        with contextlib.suppress(OSError):
+            self._file.close()
 
     def count(self) -> int:
         """Rows in the file now (a half-written last line not counted)."""

@@ -20,7 +20,7 @@ from pathlib import Path
 from cell.config import escape
 from cell.sweep.errors import SweepError
 from cell.sweep.jobs import job_module
-from cell.sweep.output import RESULTS, prepare_out, remove_temporaries
+from cell.sweep.output import RESULTS, prepare_out, remove_temporaries, sweep_lock
 from cell.sweep.plan import Plan, Run, param_value, plan_sweep
 from cell.sweep.progress import Progress
 from cell.sweep.results import open_results
@@ -134,7 +134,14 @@ def run_plan(plan: Plan, out: Path, options: SweepOptions, *, backend: object | 
     ``out`` must exist (:func:`run_sweep` makes it).
 
     ``backend``: a started backend to use (left running); default: one made from
-    ``options``, closed at the end."""
+    ``options``, closed at the end. The folder is locked meanwhile (:func:`sweep_lock`):
+    a second sweep there stops with one line instead of running the runs again."""
+    with sweep_lock(out):
+        return _run_plan(plan, out, options, backend)
+
+
+def _run_plan(plan: Plan, out: Path, options: SweepOptions, backend: object | None) -> SweepRun:
+    """:func:`run_plan`, its folder locked."""
     t0 = time.perf_counter()
     own = backend is None
     backend = make_backend(options) if own else backend

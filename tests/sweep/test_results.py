@@ -185,3 +185,32 @@ def test_atomic_writes_leave_no_temporary_file(tmp_path):
     write_atomic(tmp_path / "a.png", b"\x89PNG again")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
     assert (tmp_path / "a.png").read_bytes() == b"\x89PNG again"
+
+
+def test_one_sweep_at_a_time_writes_to_a_folder(tmp_path):
+    # (two sweeps on one folder both ran every run: 67 rows for 40 runs, and --resume then
+    # refused the file)
+    from cell.sweep.output import sweep_lock
+
+    busy = pytest.raises(SweepError, match="another cell sweep is writing there now")
+    with sweep_lock(tmp_path), busy, sweep_lock(tmp_path):
+        pass
+    with sweep_lock(tmp_path):  # free again once the first is done
+        pass
+    assert list(tmp_path.iterdir()) == []  # (the folder itself is locked: no file made)
+
+
+def test_results_closed_on_a_full_disk_raise_nothing_more(tmp_path, monkeypatch):
+    # (the failed flush was retried by close() in the runner's finally: a bare OSError
+    # traceback over the one-line SweepError)
+    path = tmp_path / "results.csv"
+    results, _ = open_results(path, COLUMNS, KNOWN)
+
+    class _Full:
+        def close(self):
+            raise OSError(28, "No space left on device")
+
+    real = results._file
+    monkeypatch.setattr(results, "_file", _Full())
+    results.close()
+    real.close()

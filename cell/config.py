@@ -180,7 +180,9 @@ def _coerce_scalar(value: Any, tp: type, meta: dict[str, Any], key: str, where: 
     # (a NumPy integer or float, as code may pass, is taken as the Python number it holds)
     ok = False
     if tp is bool:
-        ok = isinstance(value, bool)
+        ok = isinstance(value, bool) or (getattr(value, "dtype", None) is not None
+                                         and value.dtype.kind == "b" and value.ndim == 0)
+        value = bool(value) if ok else value  # (a NumPy bool, as code may pass)
     elif tp is int:
         ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
         value = int(value) if ok else value

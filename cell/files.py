@@ -3,9 +3,10 @@
 ``atomic_write_bytes`` writes through a temporary file beside the target: written,
 flushed, fsynced, read back and checked, renamed over the target, the folder fsynced. A
 failure removes the temporary file and leaves the target as it was. ``StagedFiles`` does
-the same for several files that belong together: all are written before the first is
-renamed, and the renames run with Ctrl-C and SIGTERM held off (``signals_held``), so a
-failure or a signal leaves every target as it was, or none. ``check_output_file``
+the same for several files that belong together: all are written (and checked) before
+the first is renamed, and the renames run with Ctrl-C and SIGTERM held off
+(``signals_held``), so a failed write or a signal leaves every target as it was, or none
+(a rename that fails midway, the disk gone, leaves the files renamed before it new). ``check_output_file``
 refuses, before any work is done, a path that cannot become a file.
 """
 
@@ -46,9 +47,9 @@ def signals_held() -> Iterator[None]:
         yield
     finally:
         for s, handler in before.items():
-            signal.signal(s, handler)
-        if caught:
-            signal.raise_signal(caught[0])
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+    if caught:  # (only when the block succeeded: a failure's own error is what to report)
+        signal.raise_signal(caught[0])
 
 
 class StagedFiles:

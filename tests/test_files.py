@@ -91,3 +91,10 @@ def test_staged_files_interrupted_between_the_renames_are_all_renamed(tmp_path, 
     assert renamed == ["a.json", "b.png"]  # the signal waited for the last one
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "b.png"]
     assert {p.read_text() for p in tmp_path.iterdir()} == {"new"}
+
+
+def test_a_failure_inside_signals_held_is_reported_not_the_signal_it_held():
+    with pytest.raises(ValueError, match="the real error"), signals_held():
+        os.kill(os.getpid(), signal.SIGINT)
+        raise ValueError("the real error")
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -130,7 +130,7 @@ def compare_eye_to_hand(data: HandEyeData) -> tuple[tuple[EyeToHandEstimate, ...
 
     A method whose result is not finite is left out; if all fail, ``CalibrationError``.
     """
-    check_turns(data.T_base_flange, "eye-to-hand", "calibration.overhead_tilt")
+    check_turns(data.T_camera_board, "eye-to-hand", "calibration.overhead_tilt")
     estimates = []
     for name in ROBOT_WORLD_METHODS:
         try:

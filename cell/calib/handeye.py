@@ -130,15 +130,17 @@ def consistency(data: HandEyeData, T_flange_camera: np.ndarray) -> tuple[np.ndar
     return T_base_board, float(np.sqrt(np.mean(np.sum(miss**2, axis=-1))))
 
 
-def second_turn_deg(T_base_flange: np.ndarray) -> float:
-    """How much the flange turned about a second axis over the views (degrees, RMS): the
-    second singular value of the rotation vectors of every view relative to the first,
+def second_turn_deg(T: np.ndarray) -> float:
+    """How much the views turned about a second axis (degrees, RMS): the second singular
+    value of the rotation vectors of every pose ``T`` (N, 4, 4) relative to the first,
     over the square root of their count. Zero when every view turns about one axis (a
     tool that only spins about its own axis, say): hand-eye calibration then has no
-    unique answer (Tsai & Lenz, IEEE TRA 5(3), 1989: two non-parallel rotation axes)."""
+    unique answer (Tsai & Lenz, IEEE TRA 5(3), 1989: two non-parallel rotation axes).
+    The board's poses in the camera turn as the flange does, and come from the images,
+    not the joint readings (whose noise alone would fake a few degrees of turn)."""
     from scipy.spatial.transform import Rotation
 
-    R = np.asarray(T_base_flange, dtype=np.float64)[:, :3, :3]
+    R = np.asarray(T, dtype=np.float64)[:, :3, :3]
     if len(R) < 3:
         return 0.0
     turns = Rotation.from_matrix(np.einsum("ji,njk->nik", R[0], R[1:])).as_rotvec()
@@ -146,10 +148,11 @@ def second_turn_deg(T_base_flange: np.ndarray) -> float:
     return float(np.degrees(s[1] / np.sqrt(len(turns))))
 
 
-def check_turns(T_base_flange: np.ndarray, what: str, key: str) -> None:
+def check_turns(T_camera_board: np.ndarray, what: str, key: str) -> None:
     """A ``CalibrationError`` naming ``what`` and the scenario ``key`` that tilts the views,
-    when they turn about one axis only (:func:`second_turn_deg`)."""
-    turn = second_turn_deg(T_base_flange)
+    when they turn about one axis only (:func:`second_turn_deg` of the board's poses in the
+    camera, (N, 4, 4))."""
+    turn = second_turn_deg(T_camera_board)
     if not turn >= MIN_SECOND_TURN_DEG:
         raise CalibrationError(
             f"{what}: the views turn about one axis only ({turn:.2f} deg RMS about a second "
@@ -186,7 +189,7 @@ def compare_hand_eye(data: HandEyeData) -> tuple[tuple[HandEyeEstimate, ...], st
     ``MIN_SECOND_TURN_DEG``) are a ``CalibrationError``: the problem has no unique answer.
     A method whose result is not finite is left out; if all fail, ``CalibrationError``.
     """
-    check_turns(data.T_base_flange, "hand-eye", "calibration.max_tilt")
+    check_turns(data.T_camera_board, "hand-eye", "calibration.max_tilt")
     estimates = []
     for name in HAND_EYE_METHODS:
         try:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -104,7 +105,7 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
                        f"load_scenario or scenario_from_dict), got {type(scenario).__name__}")
     if isinstance(calibration, CalibrationRun):
         calibration = calibration.calibration
-    if not (calibration is None or isinstance(calibration, CalibrationFile | str | Path)):
+    if not (calibration is None or isinstance(calibration, CalibrationFile | str | os.PathLike)):
         raise JobError(f"run_sort: argument 'calibration': expected a CalibrationFile, a path "
                        f"to one, a CalibrationRun or None, got {type(calibration).__name__}")
     t_start = time.perf_counter()

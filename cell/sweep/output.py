@@ -82,6 +82,8 @@ def sweep_lock(path: Path) -> Iterator[None]:
         except BlockingIOError:
             raise SweepError(f"{shown}: another cell sweep is writing there now; wait for it to "
                              "end (then --resume), or name another folder") from None
+        except OSError:  # a file system without locks (NFS without its lock daemon): as before
+            pass
         yield
     finally:
         os.close(fd)  # (releases the lock)

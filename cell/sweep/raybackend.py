@@ -28,7 +28,12 @@ __all__ = ["RayPool", "import_ray"]
 
 
 def import_ray():
-    """The ``ray`` module, or a ``SweepError`` saying how to install it."""
+    """The ``ray`` module, or a ``SweepError`` saying how to install it. The process's state
+    before Ray's first import is kept (importing it sets ``sys.excepthook`` and ``RAY_*``
+    variables): :meth:`RayPool.close` puts it back."""
+    global _BEFORE_RAY
+    if "ray" not in sys.modules and _BEFORE_RAY is None:
+        _BEFORE_RAY = _ProcessState.now()
     try:
         import ray
     except ImportError:
@@ -64,8 +69,10 @@ class RayPool:
         """Start a local Ray instance or join the cluster (once)."""
         if self._ray is not None:
             return
-        before = _ProcessState.now()  # (importing Ray changes the process already)
         ray = import_ray()
+        now = _ProcessState.now()
+        first = _BEFORE_RAY or now  # (environment and excepthook as before Ray's import)
+        before = _ProcessState(first.environ, first.excepthook, now.handlers)
         if not ray.is_initialized():
             options = {"include_dashboard": False, "log_to_driver": False,
                        "logging_level": logging.ERROR}
@@ -130,10 +137,11 @@ class RayPool:
 
 @dataclass(frozen=True)
 class _ProcessState:
-    """What ``ray.init`` changes in the driver's process and leaves so after ``shutdown``:
-    the environment (``RAY_*``, ``PYTHONBREAKPOINT`` pointing at Ray's debugger, which
-    turns a later ``breakpoint()`` into an error line), ``sys.excepthook`` and the SIGINT
-    and SIGTERM handlers."""
+    """What importing Ray and ``ray.init`` change in the driver's process and leave so
+    after ``shutdown``: the environment's ``RAY_*`` and ``PYTHONBREAKPOINT`` (pointing at
+    Ray's debugger, which turns a later ``breakpoint()`` into an error line; other
+    variables are the caller's own business), ``sys.excepthook`` and the SIGINT and
+    SIGTERM handlers."""
 
     environ: dict
     excepthook: object
@@ -147,13 +155,23 @@ class _ProcessState:
         return cls(dict(os.environ), sys.excepthook, handlers)
 
     def restore_signals(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return  # (only the main thread may set handlers)
         for s, handler in self.handlers.items():
             if handler is not None:
                 signal.signal(s, handler)
 
     def restore(self) -> None:
-        for key in set(os.environ) - set(self.environ):
+        for key in [k for k in os.environ if _rays(k) and k not in self.environ]:
             del os.environ[key]
-        os.environ.update(self.environ)
+        os.environ.update({k: v for k, v in self.environ.items() if _rays(k)})
         sys.excepthook = self.excepthook
         self.restore_signals()
+
+
+def _rays(key: str) -> bool:
+    """An environment variable Ray sets in the driver."""
+    return key.startswith("RAY_") or key == "PYTHONBREAKPOINT"
+
+
+_BEFORE_RAY: _ProcessState | None = None  # the process before Ray's first import

@@ -40,7 +40,10 @@ __all__ = [
 _FAR = 1e3  # m: the largest plane height and world extent taken
 _MAX_VIEW = 2**22  # the most pixels a bird's-eye view may have (2048 x 2048)
 _DIST_COUNTS = (4, 5, 8, 12, 14)  # OpenCV's distortion models
-_NO_RAY_PX = 0.01  # px: an undistorted point that maps back further than this has no ray
+# px: an undistorted point that maps back further than this has no ray (a fold puts it
+# pixels to tens of pixels off; cv2.undistortPointsIter may stop 0.1 px short near the
+# corners of a wide lens that folds nothing)
+_NO_RAY_PX = 0.5
 
 
 def _check_camera(camera: object) -> CameraModel:
@@ -144,7 +147,7 @@ def table_homography(camera: CameraModel, *, z: float = 0.0) -> np.ndarray:
 def no_ray(camera: CameraModel, normalised: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """Mask (N,) of the ``pixels`` (N, 2) whose undistorted points ``normalised`` (N, 2, from
     ``cv2.undistortPoints``) do not map back onto them through ``camera``'s lens model
-    within 0.01 px: a model that folds the image has no ray for such a pixel (or two), and
+    within 0.5 px: a model that folds the image has no ray for such a pixel (or two), and
     the undistortion's iteration stops anywhere."""
     with np.errstate(invalid="ignore", over="ignore"):
         back = camera.pixels_of(np.asarray(normalised, dtype=np.float64))

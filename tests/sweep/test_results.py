@@ -214,3 +214,16 @@ def test_results_closed_on_a_full_disk_raise_nothing_more(tmp_path, monkeypatch)
     monkeypatch.setattr(results, "_file", _Full())
     results.close()
     real.close()
+
+
+def test_a_file_system_without_locks_runs_the_sweep_as_before(tmp_path, monkeypatch):
+    import fcntl
+
+    from cell.sweep.output import sweep_lock
+
+    def no_locks(fd, op):
+        raise OSError(37, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    with sweep_lock(tmp_path):
+        pass

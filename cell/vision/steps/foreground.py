@@ -5,8 +5,8 @@
 default camera, wider than any part) keeps the belt, its texture's mean, light gradients
 and spot lights, and drops the parts. A camera that sees the table finer (more pixels, a
 narrower field of view: ``m_per_px``) gets a coarser copy, so that the median stays at
-least 72 mm wide on the table (1/16 at 1280x960): else a large part fills half its window
-and becomes belt, its middle lost. The
+least 72 mm wide on the table (1/16 at 1280x960, 1/13 at 1000x750): else a large part
+fills half its window and becomes belt, its middle lost. The
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
@@ -105,7 +105,7 @@ def belt_scale(m_per_px: float | None) -> int:
     if m_per_px is None:
         return _SCALE
     m_per_px = check_range("m_per_px", m_per_px, 1e-9, 1.0)
-    return max(_SCALE, min(round(_WINDOW / (_MEDIAN * m_per_px)), 4096))
+    return max(_SCALE, min(math.ceil(_WINDOW / (_MEDIAN * m_per_px)), 4096))
 
 
 def colour_difference(image: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:

@@ -144,6 +144,8 @@ def test_colour_difference_wants_one_shape():
 def test_the_belt_model_is_at_least_72_mm_wide_on_the_table_however_fine_the_pixels():
     assert belt_scale(None) == 8 and belt_scale(0.000607) == 8  # the default camera's pixels
     assert belt_scale(0.000303) == 16 and belt_scale(0.0012) == 8  # 1280x960; 320x240
+    for m_per_px in np.linspace(0.0001, 0.0006, 26):  # never under 72 mm (rounding gave 70)
+        assert belt_scale(m_per_px) * 15 * m_per_px >= 0.072 - 1e-12
     with pytest.raises(VisionError, match="argument 'm_per_px'"):
         belt_scale(0.0)
 

@@ -78,7 +78,10 @@ def main(argv: list[str] | None = None) -> int:
     except CellError as exc:
         print(f"cell {name}: error: {printable(str(exc))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        if isinstance(getattr(exc, "by", None), Terminated):  # (a sweep's, inside a bench)
+            print(f"cell {name}: terminated", file=sys.stderr)
+            return 143
         print(f"cell {name}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader went away (`cell detect ... | head`): stop quietly

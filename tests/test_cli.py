@@ -97,3 +97,19 @@ def test_time_out_of_range_is_a_usage_error_without_traceback(tmp_path):
         "got 'nan'"
     ]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_sweep_stopped_by_sigterm_inside_another_command_says_terminated(monkeypatch, capsys):
+    # (cell bench sweep said 'interrupted' and exited 130 on SIGTERM)
+    import types
+
+    import cell.cli as cli
+    from cell.errors import Terminated
+    from cell.sweep.runner import SweepInterrupted
+
+    def main(argv):
+        raise SweepInterrupted(1, 2, Path("results.csv"), Terminated())
+
+    monkeypatch.setattr(cli.importlib, "import_module", lambda name: types.SimpleNamespace(main=main))
+    assert cli.main(["bench", "sweep"]) == 143
+    assert capsys.readouterr().err.strip() == "cell bench: terminated"

@@ -167,8 +167,9 @@ def _print(report: dict) -> None:
             f"{'ms':>5} {'p95ms':>5} {'again':>5} {'/part':>5} {'/render':>7}")
     print(head)
     for preset, r in report["presets"].items():
-        print(f"{preset:<8} {r['parts']:>5} {100 * r['material_accuracy']:>6.1f} "
-              f"{r['material_wrong']:>5} {r['material_unknown']:>4} {100 * r['kind_accuracy']:>6.1f} "
+        print(f"{preset:<8} {r['parts']:>5} {fmt(_percent(r['material_accuracy']), '>6.1f')} "
+              f"{r['material_wrong']:>5} {r['material_unknown']:>4} "
+              f"{fmt(_percent(r['kind_accuracy']), '>6.1f')} "
               f"{fmt(r['position_p50_mm'], '>6.2f')} {fmt(r['position_p95_mm'], '>6.2f')} "
               f"{fmt(r['yaw_p95_deg'], '>6.2f')} "
               f"{r['false']:>5} {r['missed']:>4} {100 * r['recall']:>6.1f} "
@@ -244,3 +245,7 @@ def main(argv: list[str]) -> int:
     else:
         _print(report)
     return 0
+
+
+def _percent(share: float | None) -> float | None:
+    return None if share is None else 100 * share

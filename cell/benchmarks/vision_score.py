@@ -117,10 +117,10 @@ def summarise(stats: dict, scenes: int, seed_base: int, parts: int) -> dict:
         ren = _pct(s["render"], 50, 1e3)
         rows[preset] = {
             "parts": s["n"],
-            "material_accuracy": s["material_ok"] / n,
+            "material_accuracy": s["material_ok"] / n if s["n"] else None,
             "material_wrong": s["material_wrong"],
             "material_unknown": s["material_unknown"],
-            "kind_accuracy": s["kind_ok"] / n,
+            "kind_accuracy": s["kind_ok"] / n if s["n"] else None,
             "position_p50_mm": _pct(pos, 50),
             "position_p95_mm": _pct(pos, 95),
             "yaw_p95_deg": _pct(yaw, 95),

@@ -176,6 +176,10 @@ def solve_hand_eye(data: HandEyeData, *, method: str) -> np.ndarray:
         raise CalibrationError(f"hand-eye: method {method} failed in OpenCV "
                                f"({str(exc).strip().splitlines()[-1]})") from None
     X = make_transform(np.asarray(R, dtype=np.float64), np.asarray(t, dtype=np.float64))
+    if np.array_equal(X, np.eye(4)):  # OpenCV logs "Hand-eye calibration failed!" and
+        # returns its untouched start (Tsai with three views, say), which no real mount is
+        raise CalibrationError(f"hand-eye: method {method} failed in OpenCV (no solution from "
+                               f"these {len(A)} views)")
     if not np.isfinite(X).all():
         raise CalibrationError(f"hand-eye: method {method} gave a non-finite result (too little "
                                "rotation between the views?)")

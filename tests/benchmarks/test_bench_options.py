@@ -154,7 +154,7 @@ def test_vision_figures_with_no_samples_are_null_and_dash(capsys):
     report = summarise(_empty_stats(), scenes=1, seed_base=vision.SEED_BASE, parts=1)
     row = report["presets"]["front"]
     for key in ("position_p50_mm", "position_p95_mm", "yaw_p95_deg", "repeat_latency_ms",
-                "latency_over_render"):
+                "latency_over_render", "material_accuracy", "kind_accuracy"):  # (0.0 before)
         assert row[key] is None, key
     assert row["latency_ms"] == pytest.approx(4.0)
     _strict_json(json.dumps(report, allow_nan=False))

@@ -129,3 +129,13 @@ def test_views_that_turn_about_one_axis_only_are_refused_naming_the_key(exact):
     for method in HAND_EYE_METHODS:  # each method alone: a finite answer or a CalibrationError
         with contextlib.suppress(CalibrationError):
             assert np.isfinite(solve_hand_eye(data, method=method)).all()
+
+
+def test_opencvs_untouched_start_is_no_solution(exact, monkeypatch):
+    # (Tsai on three views logs "Hand-eye calibration failed!" and returns identity and
+    # zero: the bench scored it 0.0000 deg off)
+    import cv2
+
+    monkeypatch.setattr(cv2, "calibrateHandEye", lambda *a, **k: (np.eye(3), np.zeros((3, 1))))
+    with pytest.raises(CalibrationError, match="method TSAI failed in OpenCV"):
+        solve_hand_eye(_data(exact), method="TSAI")

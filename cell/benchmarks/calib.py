@@ -14,7 +14,8 @@ error when the lens distorts, and the wall time per camera (s). ``required`` hol
 must-reach bars (issue 13) and ``aim`` the aims; ``meets_required`` says whether every
 seed's figures are within the bars (set for 20 poses). ``--camera`` calibrates one camera
 only, and ``--set KEY=VALUE`` changes a scenario key in every set-up (to measure a choice,
-e.g. ``calibration.refine_intrinsics=false``). Ground truth is read only to score. A figure
+e.g. ``calibration.refine_intrinsics=false``; not a key the bench sets itself: the seed,
+the poses, a chosen set-up's keys). Ground truth is read only to score. A figure
 with no samples is ``None`` (``null`` in JSON, ``-`` in the table); never NaN.
 """
 
@@ -214,6 +215,13 @@ def main(argv: list[str]) -> int:
         scenario_from_dict({}, overrides=list(args.overrides))
     except CellError as exc:
         parser_.error(f"argument --set: {exc}")
+    owned = {"seed": "--seed-base", "calibration.poses": "--poses"}  # (they were overridden unsaid)
+    for name in setups or SETUPS:
+        owned.update({k.split("=", 1)[0]: f"the set-up {name!r}" for k in SETUPS[name]})
+    for assignment in args.overrides:
+        key = assignment.split("=", 1)[0].strip()
+        if key in owned:
+            parser_.error(f"argument --set: {key} is set by {owned[key]} in this benchmark")
     report = run(seeds=seeds, seed_base=args.seed_base, poses=poses, setups=setups,
                  overrides=tuple(args.overrides), camera=args.camera)
     if args.json:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from cell.benchmarks import BENCHMARKS, calib
 
 
@@ -88,3 +90,15 @@ def test_every_seed_of_every_set_up_calibrates_every_camera(monkeypatch):
     calls.clear()
     calib.run(seeds=1, seed_base=1000, poses=7, setups=["default"], camera="overhead")
     assert [c[1] for c in calls] == ["overhead"]
+
+
+@pytest.mark.parametrize(("setting", "owner"), [
+    ("seed=5", "--seed-base"), ("calibration.poses=12", "--poses"),
+    ("sensor.distortion=[-0.3, 0.1, 0, 0, 0]", "the set-up 'distortion'"),
+])
+def test_a_set_key_the_bench_sets_itself_is_refused(capsys, setting, owner):
+    # (it was overridden without a word: two seeds of one run, 4 poses for 12)
+    with pytest.raises(SystemExit) as info:
+        calib.main(["--quick", "--set", setting])
+    assert info.value.code == 2
+    assert f"is set by {owner} in this benchmark" in capsys.readouterr().err

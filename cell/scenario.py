@@ -29,7 +29,7 @@ from typing import Any
 from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
 from cell.config import apply_override, build, check, override_source, setting, show
-from cell.errors import ScenarioError
+from cell.errors import CellError, ScenarioError
 from cell.files import input_path, read_toml_file
 from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
 from cell.robot.settings import RobotSettings
@@ -41,6 +41,7 @@ __all__ = [
     "PartsSettings",
     "Scenario",
     "SensorSettings",
+    "check_scenario",
     "load_scenario",
     "scenario_from_dict",
 ]
@@ -138,6 +139,15 @@ def scenario_from_dict(
         data = apply_override(data, assignment, Scenario)
         scenario = build(Scenario, data, where=override_source(assignment))
     return scenario
+
+
+def check_scenario(value: object, where: str, error: type[CellError]) -> Scenario:
+    """``value`` when it is a :class:`Scenario`, else ``error`` naming ``where`` (the
+    function it was given to) and how to make one."""
+    if not isinstance(value, Scenario):
+        raise error(f"{where}: argument 'scenario': expected a Scenario (cell.scenario."
+                    f"load_scenario or scenario_from_dict), got {type(value).__name__}")
+    return value
 
 
 def load_scenario(

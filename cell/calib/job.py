@@ -212,11 +212,9 @@ def run_calibration(scenario: object, *, camera: str = "wrist", progress: Progre
     """Calibrate ``camera`` (``wrist``, ``overhead`` or ``all``) of ``scenario`` in fresh
     simulated cells; score it (and, with ``touch``, run the touch tests).
     ``progress(done, total, note)`` follows the views."""
-    from cell.scenario import Scenario
+    from cell.scenario import check_scenario
 
-    if not isinstance(scenario, Scenario):
-        raise CalibrationError(f"run_calibration: argument 'scenario': expected a Scenario "
-                               f"(cell.scenario.load_scenario), got {type(scenario).__name__}")
+    check_scenario(scenario, "run_calibration", CalibrationError)
     names = _check_camera(camera)
     settings = scenario.calibration
     _check_boards(settings, names)

@@ -25,7 +25,7 @@ from cell.errors import GraspError, IKError, MotionError
 from cell.jobs.detectors import load_detector
 from cell.jobs.eye import Capture, Eye
 from cell.jobs.policy import Attempts, choose_bin, grasp_kind, pick_candidates
-from cell.jobs.score import PickRecord, Scorekeeper
+from cell.jobs.score import COMPLETED, PickRecord, Scorekeeper
 from cell.scenario import Scenario
 from cell.sim import layout
 
@@ -84,7 +84,7 @@ class SortLoop:
         self._next_state = 0.0
         self._encoder = (self.world.time, self.world.belt_encoder())
         self._belt_speed = 0.0
-        self.ended = "every part came through"  # or why the job ended before
+        self.ended = COMPLETED  # or why the job ended before
 
     # --- time -------------------------------------------------------------------------
     def _step(self, n: int = 1) -> None:

@@ -16,7 +16,7 @@ import numpy as np
 from cell.benchmarks import fmt
 from cell.config import escape
 from cell.errors import JobError
-from cell.jobs.score import OUTCOMES
+from cell.jobs.score import COMPLETED, OUTCOMES
 from cell.sim.layout import BELT_TOP
 
 __all__ = ["draw_detections", "encode_png", "summary_table"]
@@ -36,7 +36,7 @@ def summary_table(report: dict) -> str:
         lines.append(f"  {key:<14} {sum(r['outcome'] == key for r in report['parts']):>5}")
     if a["not_spawned"]:
         lines.append(f"  {'not_spawned':<14} {a['not_spawned']:>5}")
-    if report["ended"] != "every part came through":
+    if report["ended"] != COMPLETED:
         lines += ["", f"the job ended early: {report['ended']}"]
     lines += ["", f"{'sort accuracy':<24} {_pct(m['sort_accuracy'])}",
               f"{'classification accuracy':<24} {_pct(m['classification_accuracy'])}",

@@ -25,7 +25,9 @@ import numpy as np
 
 from cell.catalogue import KINDS
 
-__all__ = ["OUTCOMES", "PickRecord", "Scorekeeper", "metrics_of"]
+COMPLETED = "every part came through"  # a report's ``ended`` when the job did not end early
+
+__all__ = ["COMPLETED", "OUTCOMES", "PickRecord", "Scorekeeper", "metrics_of"]
 
 OUTCOMES = ("binned_correct", "binned_wrong", "rejected", "missed", "dropped")
 

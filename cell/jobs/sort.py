@@ -39,7 +39,7 @@ from cell.errors import JobError
 from cell.jobs.eye import Capture
 from cell.jobs.loop import Progress, SortLoop
 from cell.jobs.score import metrics_of
-from cell.scenario import Scenario
+from cell.scenario import Scenario, check_scenario
 
 __all__ = ["SortRun", "overhead_model", "run_sort"]
 
@@ -100,9 +100,7 @@ def run_sort(scenario: Scenario, *, calibration: object | str | Path | None = No
     from cell.calib.job import CalibrationRun
     from cell.jobs.detectors import load_detector
 
-    if not isinstance(scenario, Scenario):
-        raise JobError(f"run_sort: argument 'scenario': expected a Scenario (cell.scenario."
-                       f"load_scenario or scenario_from_dict), got {type(scenario).__name__}")
+    check_scenario(scenario, "run_sort", JobError)
     if isinstance(calibration, CalibrationRun):
         calibration = calibration.calibration
     if not (calibration is None or isinstance(calibration, CalibrationFile | str | os.PathLike)):

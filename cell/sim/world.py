@@ -38,7 +38,7 @@ import numpy as np
 from cell.camera import CameraModel
 from cell.catalogue import KINDS, MATERIALS
 from cell.errors import SimError
-from cell.scenario import Scenario
+from cell.scenario import Scenario, check_scenario
 from cell.sim import layout
 from cell.sim.arm import HOME, JOINT_NAMES
 from cell.sim.cameras import CameraRig, Frame, true_camera_model
@@ -67,9 +67,7 @@ class World:
 
     def __init__(self, scenario: Scenario, *, arm: bool = True,
                  flange_board: bool = False, msaa: int = 0) -> None:
-        if not isinstance(scenario, Scenario):
-            raise SimError(f"World: argument 'scenario': expected a Scenario (cell.scenario."
-                           f"load_scenario or scenario_from_dict), got {type(scenario).__name__}")
+        check_scenario(scenario, "World", SimError)
         if flange_board and not arm:
             raise SimError("the flange board needs the arm: build with arm=True")
         if isinstance(msaa, bool) or not isinstance(msaa, (int, np.integer)) or \

@@ -123,6 +123,33 @@ def test_every_sizeable_region_of_a_colour_seeds_the_colour_cut():
     assert seeds[29, 66] in (0, black) and seeds[30, 52] in (0, black)  # no blue seeds
 
 
+def test_colour_cut_leaves_the_callers_opencv_generator_alone():
+    """The colour clusters' k-means++ start is seeded in a thread of its own: a caller who
+    seeded OpenCV's generator draws the same numbers with or without a colour cut between,
+    and the same blob gives the same seeds every time."""
+    from cell.vision.steps.material import PartPixels
+    from cell.vision.steps.split import _colour_seeds
+
+    img = np.zeros((60, 80, 3), np.uint8)
+    img[:, :40] = (30, 60, 200)
+    img[:, 40:] = (200, 180, 40)
+    noise = np.random.default_rng(3).integers(0, 12, img.shape, dtype=np.uint8)
+    img = cv2.add(img, noise)
+    pixels = PartPixels(0, 0, np.full((60, 80), 255, np.uint8))
+
+    def draws() -> np.ndarray:
+        out = np.zeros(8, np.float32)
+        cv2.randu(out, 0.0, 1.0)
+        return out
+
+    cv2.setRNGSeed(1234)
+    expected = draws()
+    cv2.setRNGSeed(1234)
+    first = _colour_seeds(pixels, img)
+    assert np.array_equal(draws(), expected)
+    assert first is not None and np.array_equal(_colour_seeds(pixels, img), first)
+
+
 def test_each_straight_cut_is_tried_once():
     """Two notches facing each other across a waist: the cut between them is also each
     one's nearest point across; it is one candidate, not three (each costs a fit)."""

@@ -38,9 +38,11 @@ def check_array(
     if not isinstance(value, np.ndarray):
         raise VisionError(f"argument '{name}': expected a numpy array, got {type(value).__name__}")
     if dtypes is not None and value.dtype not in [np.dtype(d) for d in dtypes]:
+        swapped = not value.dtype.isnative
         raise VisionError(
-            f"argument '{name}': dtype {value.dtype.name} not supported "
-            f"(valid: {_dtype_names(dtypes)})"
+            f"argument '{name}': dtype {value.dtype.name}"
+            f"{' in non-native byte order' if swapped else ''} not supported "
+            f"(valid: {_dtype_names(dtypes)}{', native byte order' if swapped else ''})"
         )
     if ndim is not None and value.ndim not in ndim:
         raise VisionError(

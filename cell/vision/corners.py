@@ -164,7 +164,9 @@ def harris_corners(
         is not refined); "none" keeps the response peak, which sits about one
         pixel inside a convex corner.
 
-    Returns (N, 2) float64 (x, y) pixels, strongest first.
+    Returns (N, 2) float64 (x, y) pixels, strongest first, at least ``min_distance``
+    apart (after refinement too: a point refined to within it of a stronger one, the
+    same corner's other response peak, is dropped).
     """
     image = check_gray("image", image)
     check_choice("refine", refine, ("subpix", "none"))
@@ -189,4 +191,7 @@ def harris_corners(
         moved = np.hypot(*(refined - pts).T) > win
         refined[moved] = pts[moved]
         pts = refined.astype(np.float64)
+        # two response peaks of one corner (a blurred X-junction has four, 3 px apart)
+        # refine onto one apex: keep the stronger
+        pts = pts[_spaced_greedily(pts, min_distance)]
     return pts

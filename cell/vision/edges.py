@@ -113,7 +113,9 @@ class EdgeClosure:
     ``min_fragment`` pixels; ``endpoints``: edge pixels with exactly one 8-neighbour
     (a closed contour has none); ``loops``: regions of at least ``min_loop_area``
     pixels fully enclosed by edges; ``largest_loop_area`` and ``enclosed_area`` (all
-    loops together; pixels, edges excluded); ``closure``:
+    loops together; pixels, edges excluded, the band the bridging of gaps covers given
+    back: a closed contour's loop has the same area whatever ``max_gap``, within a few
+    pixels along a curve, unless the bridging fills it); ``closure``:
     share of the edge pixels that border an enclosed region, 0 (nothing closes) to 1
     (every edge pixel lies on a closed contour).
     """
@@ -158,26 +160,34 @@ def contour_closure(
     neigh = cv2.filter2D(e.view(np.uint8), cv2.CV_16S, np.ones((3, 3), np.float32),
                          borderType=cv2.BORDER_CONSTANT) - e
     endpoints = int(np.sum(e & (neigh == 1)))
-    wall = e
-    if max_gap > 0:
-        wall = cv2.dilate(e.view(np.uint8), np.ones((max_gap + 1, max_gap + 1), np.uint8)) > 0
+    # gaps up to max_gap bridged: the edges dilated by a (max_gap + 1)-square, which for
+    # an odd max_gap reaches one pixel farther on one side (OpenCV anchors an even kernel
+    # past its middle)
+    square = np.ones((max_gap + 1, max_gap + 1), np.uint8)
+    wall = cv2.dilate(e.view(np.uint8), square) > 0 if max_gap > 0 else e
     free = np.pad(~wall, 1, constant_values=True).view(np.uint8)
     _, lab, st, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
     lab = lab[1:-1, 1:-1]
     outside = lab[0, 0] if free[0, 0] else -1  # the padded frame's component
-    areas = st[:, cv2.CC_STAT_AREA]
-    enclosed_ids = [i for i in range(1, len(areas)) if i != outside and areas[i] >= min_loop_area]
+    enclosed_ids = [i for i in range(1, len(st)) if i != outside
+                    and st[i, cv2.CC_STAT_AREA] >= min_loop_area]
     if not enclosed_ids:
         return EdgeClosure(n_edge, fragments, endpoints, 0, 0, 0, 0.0)
-    enclosed = np.isin(lab, enclosed_ids)
-    reach = np.ones((max_gap + 3, max_gap + 3), np.uint8)
-    touching = cv2.dilate(enclosed.view(np.uint8), reach) > 0
+    enclosed = np.where(np.isin(lab, enclosed_ids), lab, 0)
+    if max_gap > 0:  # give each loop back the band the dilation took from it: the mirrored
+        # square from its pixels, up to the edges (an edge line stops it on either side)
+        back = max_gap // 2
+        enclosed = cv2.dilate(enclosed.astype(np.float32), square, anchor=(back, back))
+        enclosed = np.where(e, 0, enclosed).astype(np.int64)
+    areas = np.bincount(enclosed.ravel(), minlength=len(st))[enclosed_ids]
+    reach = np.ones((2 * ((max_gap + 1) // 2) + 3,) * 2, np.uint8)  # the wider side's band, + 1
+    touching = cv2.dilate((enclosed > 0).view(np.uint8), reach) > 0
     return EdgeClosure(
         edge_pixels=n_edge,
         fragments=fragments,
         endpoints=endpoints,
         loops=len(enclosed_ids),
-        largest_loop_area=int(areas[enclosed_ids].max()),
-        enclosed_area=int(areas[enclosed_ids].sum()),
+        largest_loop_area=int(areas.max()),
+        enclosed_area=int(areas.sum()),
         closure=float(np.sum(touching & e)) / n_edge,
     )

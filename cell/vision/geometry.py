@@ -114,7 +114,11 @@ def apply_homography(H: np.ndarray, points: np.ndarray) -> np.ndarray:
     to infinity (w = 0: it lies on the line ``H`` maps to the line at infinity) is an
     error naming it."""
     H = _check_matrix("H", H, (3, 3))
-    if np.linalg.matrix_rank(H) < 3:
+    norms = np.linalg.norm(H, axis=1)
+    # rank of H with each row scaled to length 1: a homography between point sets of
+    # scales 1e-30 and 1 is diag(1e-30, 1e-30, 1), invertible, though its singular values
+    # span 30 decades (the rank's relative tolerance called it singular)
+    if not norms.all() or np.linalg.matrix_rank(H / norms[:, None]) < 3:
         raise VisionError("argument 'H': singular (rank below 3): not a homography")
     p = check_points("points", points)
     q = np.c_[p, np.ones(len(p))] @ H.T
@@ -214,7 +218,9 @@ def birdseye_view(
     ``y = y1 - (i + 0.5) res`` (so +x points right and +y up, like a map). Every
     output pixel is projected into the image through the full camera model
     (distortion included) and sampled bilinearly (``cv2.remap``); points outside the
-    image are black.
+    image are black, and so are points the camera cannot see: behind it, or past a fold
+    of its lens model (where a strong distortion turns back: the pixel such a point
+    projects to sees a nearer point, as :func:`no_ray` tells).
 
     Parameters
     ----------
@@ -245,9 +251,33 @@ def birdseye_view(
     ys = y1 - (np.arange(h) + 0.5) * resolution
     X, Y = np.meshgrid(xs, ys)
     pts = np.stack([X.ravel(), Y.ravel(), np.full(X.size, z)], axis=1)
-    uv = cam.project(pts).reshape(h, w, 2).astype(np.float32)
+    uv = _seen_at(cam, pts).reshape(h, w, 2).astype(np.float32)
     return cv2.remap(image, uv[..., 0], uv[..., 1], cv2.INTER_LINEAR,
                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+def _seen_at(cam: CameraModel, points: np.ndarray) -> np.ndarray:
+    """The pixels (N, 2) where ``cam`` sees the world points (N, 3); far outside the
+    image (-1e6) for a point it cannot see: behind the camera, or past a fold of its lens
+    model (where the pixel it projects to sees a nearer point: undistorting that pixel
+    does not give the point's ray back within 0.5 px)."""
+    T = cam.T_camera_world
+    P = points @ T[:3, :3].T + T[:3, 3]
+    ahead = P[:, 2] > 0
+    norm = np.zeros((len(P), 2))
+    norm[ahead] = P[ahead, :2] / P[ahead, 2:3]
+    uv = cam.pixels_of(norm)
+    seen = ahead & np.isfinite(uv).all(axis=1)
+    if np.any(cam.dist):  # only the pixels in the image can show a fold
+        near = seen & (uv[:, 0] > -2) & (uv[:, 0] < cam.width + 1) & (uv[:, 1] > -2) & (
+            uv[:, 1] < cam.height + 1)
+        back = cv2.undistortPointsIter(
+            uv[near].reshape(-1, 1, 2), cam.K, cam.dist, np.eye(3), np.eye(3),
+            (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-14)).reshape(-1, 2)
+        off = np.abs(back - norm[near]).max(axis=1) * max(cam.K[0, 0], cam.K[1, 1])
+        seen[np.flatnonzero(near)[~(off <= _NO_RAY_PX)]] = False
+    uv[~seen] = -1e6
+    return uv
 
 
 def _check_span(name: str, value: object) -> tuple[float, float]:

@@ -57,7 +57,8 @@ def occupancy_grid(
     image : uint8 (H, W) grey image of the table.
     cell_px : cell edge in pixels, 1 to 2**31 - 1; a partial last row/column counts
         as a cell (a cell larger than the image is one cell).
-    threshold : grey level 0..255; None uses Otsu's.
+    threshold : grey level 0..255; None uses Otsu's (:func:`threshold_otsu`; an image
+        of one grey level, an empty and evenly lit table, then has no objects).
     polarity : "bright" (objects brighter than the table) or "dark".
     min_area : objects smaller than this (pixels, 0 to 2**31 - 1) are noise and
         ignored.
@@ -73,6 +74,8 @@ def occupancy_grid(
     min_area = check_int("min_area", min_area, 0, 2**31 - 1)
     t = float(threshold_otsu(image) if threshold is None else threshold)
     mask = threshold_fixed(image, value=t, polarity=polarity)
+    if threshold is None and image.min() == image.max():
+        mask[:] = False  # one grey level: no two classes for Otsu's to tell apart
     if min_area > mask.size:  # no object can be that large (label_components takes <= H*W)
         mask, min_area = np.zeros_like(mask), 0
     objects = label_components(mask, connectivity=8, min_area=min_area)

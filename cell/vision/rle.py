@@ -58,16 +58,18 @@ def rle_encode(array: np.ndarray) -> RunLength:
 
 def _check_runs(name: str, rle: object) -> RunLength:
     """``rle`` a consistent ``RunLength``: ``shape`` two integers >= 0 with at most
-    ``MAX_PIXELS`` pixels, ``values`` integers 0..255 (0..1 for a mask) and ``lengths``
-    integers >= 1, one per value, summing to H * W."""
+    ``MAX_PIXELS`` pixels, ``values`` integers 0..255 (0..1 for a mask, alternating: the
+    byte form keeps a mask's first value only) and ``lengths`` integers >= 1, one per
+    value, summing to H * W."""
     if not isinstance(rle, RunLength):
         raise VisionError(f"argument '{name}': expected a RunLength, got {type(rle).__name__}")
     shape = rle.shape
     if (not isinstance(shape, tuple) or len(shape) != 2
             or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 0
-                       for v in shape) or shape[0] * shape[1] > MAX_PIXELS):
+                       for v in shape) or int(shape[0]) * int(shape[1]) > MAX_PIXELS):
         raise VisionError(f"argument '{name}': shape must be two integers >= 0 with at most "
                           f"{MAX_PIXELS} pixels in all, got {shape!r}")
+    shape = (int(shape[0]), int(shape[1]))  # (numpy integers would overflow below)
     values, lengths = rle.values, rle.lengths
     for field, arr in (("values", values), ("lengths", lengths)):
         if not isinstance(arr, np.ndarray) or arr.ndim != 1 or arr.dtype.kind not in "ui":
@@ -84,6 +86,10 @@ def _check_runs(name: str, rle: object) -> RunLength:
     if len(lengths) and (lengths.min() < 1 or lengths.max() > shape[0] * shape[1]):
         raise VisionError(f"argument '{name}': run lengths must lie in 1..{shape[0] * shape[1]}, "
                           f"got {lengths.min()}..{lengths.max()}")
+    if rle.binary and len(values) > 1 and np.any(values[1:] == values[:-1]):
+        i = int(np.argmax(values[1:] == values[:-1]))
+        raise VisionError(f"argument '{name}': a mask's runs must alternate 0 and 1; runs {i} "
+                          f"and {i + 1} are both {int(values[i])}")
     if (total := int(lengths.sum())) != shape[0] * shape[1]:
         raise VisionError(f"argument '{name}': run lengths sum to {total}, "
                           f"not {shape[0]} x {shape[1]}")

@@ -38,15 +38,19 @@ MAX_SAD_WORK = 2**32  # h * w * (H-h+1) * (W-w+1) pixel differences: a few secon
 
 
 def _pair(image: np.ndarray, template: np.ndarray, name: str = "template"):
-    """Both as float32 after checking them: grey, uint8 or float32, finite (one NaN
-    pixel would make every SSD score 0, a perfect match everywhere), the template no
-    larger than the image."""
+    """Both checked: grey, uint8 or float32, finite (one NaN pixel would make every SSD
+    score 0, a perfect match everywhere), the template no larger than the image; both
+    uint8 as they are (``cv2.matchTemplate`` then scores an exact match 0; converted to
+    float32 first, its sums of squares cancel to tens of grey levels^2 off), else both
+    float32."""
     image = check_finite("image", check_gray("image", image, dtypes=_DTYPES))
     template = check_finite(name, check_gray(name, template, dtypes=_DTYPES))
     if template.shape[0] > image.shape[0] or template.shape[1] > image.shape[1]:
         raise VisionError(
             f"argument '{name}': shape {template.shape} is larger than the image's {image.shape}"
         )
+    if image.dtype == template.dtype == np.uint8:
+        return image, template
     return image.astype(np.float32, copy=False), template.astype(np.float32, copy=False)
 
 
@@ -54,7 +58,9 @@ def match_ssd(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     """Sum of squared differences ``sum (I(x+u, y+v) - T(u, v))^2`` per placement.
 
     image, template : uint8 or float32 (H, W), (h, w), finite. Returns float32
-    (H-h+1, W-w+1), grey levels squared. Wraps ``cv2.matchTemplate(..., cv2.TM_SQDIFF)``.
+    (H-h+1, W-w+1), grey levels squared. Wraps ``cv2.matchTemplate(..., cv2.TM_SQDIFF)``,
+    which sums in floating point: a score is exact to about 1e-7 of the window's sum of
+    squares (an exact match of uint8 images scores 0).
     """
     img, tpl = _pair(image, template)
     return cv2.matchTemplate(img, tpl, cv2.TM_SQDIFF)
@@ -72,7 +78,7 @@ def match_sad(image: np.ndarray, template: np.ndarray) -> np.ndarray:
     image, template : uint8 or float32 (H, W), (h, w), finite. Returns float32
     (H-h+1, W-w+1), grey levels.
     """
-    img, tpl = _pair(image, template)
+    img, tpl = (a.astype(np.float32, copy=False) for a in _pair(image, template))
     h, w = tpl.shape
     rows, cols = img.shape[0] - h + 1, img.shape[1] - w + 1
     if h * w * rows * cols > MAX_SAD_WORK:

@@ -97,9 +97,15 @@ def threshold_otsu(image: np.ndarray) -> int:
     image : uint8 (H, W).
 
     Returns ``t`` (0..255); the bright class is ``image > t``. Wraps
-    ``cv2.threshold(..., cv2.THRESH_OTSU)`` (Otsu 1979).
+    ``cv2.threshold(..., cv2.THRESH_OTSU)`` (Otsu 1979). An image of one grey level has
+    no two classes: ``t`` is that level, so the bright class is empty (as scikit-image's
+    ``threshold_otsu`` and :func:`threshold_iterative`; OpenCV says 0, which made the
+    whole image bright).
     """
     image = check_gray("image", image)
+    lo, hi = int(image.min()), int(image.max())
+    if lo == hi:
+        return lo
     t, _ = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     return int(t)
 
@@ -157,8 +163,10 @@ def threshold_adaptive(
     ``polarity="bright"``: object where ``image > m + offset``; ``"dark"``: object
     where ``image <= m - offset`` (as in :func:`threshold_fixed`, the dark side
     includes the level). ``m`` is the box mean (``method="mean"``) or the
-    Gaussian-weighted mean (``"gaussian"``, sigma ``0.3 ((block_size - 1) / 2 - 1) +
-    0.8``, OpenCV's rule from the size), computed with a replicated border and
+    Gaussian-weighted mean (``"gaussian"``: ``cv2.getGaussianKernel(block_size, 0)``,
+    whose sigma is ``0.3 ((block_size - 1) / 2 - 1) + 0.8``, except for block sizes 3, 5
+    and 7, which take OpenCV's fixed binomial tables, ``[1 2 1] / 4``,
+    ``[1 4 6 4 1] / 16`` and its 7-tap one), computed with a replicated border and
     rounded to the nearest integer (ties to even), as ``cv2.adaptiveThreshold`` does.
     Choose ``block_size`` larger than the objects so the local mean is mostly
     background.

@@ -112,6 +112,22 @@ def test_harris_finds_each_of_1024_corners_of_a_large_image():
     assert len(set(d.argmin(axis=0).tolist())) == len(truth)  # by a point of its own
 
 
+def test_harris_gives_each_checkerboard_corner_once():
+    """A blurred X-junction has four response peaks 3 px apart; two survive the NMS and
+    refine onto one apex: the stronger is kept, so each inner corner of an axis-aligned
+    board comes once and the points stay min_distance apart."""
+    square = 20
+    board = (((np.indices((240, 320)) // square).sum(0) % 2) * 160 + 40).astype(np.uint8)
+    pts = harris_corners(cv2.GaussianBlur(board, (0, 0), 1.0), min_distance=4)
+    inner = np.array([(x * square - 0.5, y * square - 0.5)
+                      for x in range(1, 16) for y in range(1, 12)])
+    assert len(pts) == len(inner) == 165
+    d = np.hypot(*(pts[:, None] - inner[None]).transpose(2, 0, 1))
+    assert d.min(axis=0).max() < 0.5 and len(set(d.argmin(axis=0).tolist())) == 165
+    gaps = np.hypot(*(pts[:, None] - pts[None]).transpose(2, 0, 1)) + 1e9 * np.eye(len(pts))
+    assert gaps.min() >= 4
+
+
 @pytest.mark.parametrize(("yaw_deg", "seed"), [(5, 0), (10, 1), (10, 2), (15, 3)])
 def test_harris_finds_each_visible_vertex_of_a_box(yaw_deg, seed):
     cam = box_scene.camera()

@@ -22,6 +22,27 @@ def test_sobel_on_a_ramp_and_a_step():
     np.testing.assert_array_equal(raw.gx, cv2.Sobel(step, cv2.CV_32F, 1, 0))
 
 
+@pytest.mark.parametrize("max_gap", range(6))
+def test_closed_contour_scores_closed_whatever_the_gap_bridged(max_gap):
+    """An unbroken outline is closed (closure 1) and its loop keeps its area whatever gap
+    is bridged, odd or even (an even kernel is anchored off its middle); a 3 px gap is
+    bridged from max_gap 3 on and the loop's area is the unbroken one's."""
+    square = np.zeros((60, 60), np.uint8)
+    cv2.rectangle(square, (10, 10), (40, 40), 1)
+    circle = np.zeros((80, 80), np.uint8)
+    cv2.circle(circle, (40, 40), 25, 1)
+    sq = contour_closure(square > 0, max_gap=max_gap, min_loop_area=1)
+    ci = contour_closure(circle > 0, max_gap=max_gap, min_loop_area=1)
+    assert sq.closure == 1.0 and sq.loops == 1 and sq.largest_loop_area == 29 * 29
+    assert ci.closure == 1.0 and ci.loops == 1
+    assert abs(ci.largest_loop_area - contour_closure(circle > 0, max_gap=0).largest_loop_area) <= 5
+    square[10, 20:23] = 0  # a 3 px gap
+    broken = contour_closure(square > 0, max_gap=max_gap)
+    assert broken.loops == (max_gap >= 3)
+    if max_gap >= 3:
+        assert broken.closure == 1.0 and abs(broken.largest_loop_area - 29 * 29) <= 3
+
+
 def test_closure_measure_on_drawn_contours():
     img = np.zeros((60, 60), np.uint8)
     cv2.rectangle(img, (10, 10), (40, 40), 1)
@@ -155,3 +176,9 @@ def test_sobel_refuses_bad_arguments(name, value):
 
 def test_contour_closure_defaults_on_a_one_pixel_image():
     assert contour_closure(np.ones((1, 1), bool)).edge_pixels == 1
+
+
+def test_a_big_endian_image_is_refused_saying_why():
+    """'dtype float32 not supported (valid: uint8, float32)' left the user guessing."""
+    with pytest.raises(VisionError, match="float32 in non-native byte order not supported"):
+        sobel(np.zeros((8, 8), np.dtype(">f4")))

@@ -149,9 +149,19 @@ def test_homography_from_points_refuses_an_overflowing_homography():
         homography_from_points(_SQ * 1e-300, _SQ * 1e300)
 
 
+@pytest.mark.parametrize("scale", [1e-30, 1e-16, 1e20, 1e39])
+def test_apply_homography_applies_what_homography_from_points_gives(scale):
+    """Point sets of scales 30 decades apart, as homography_from_points allows: H is
+    diag(s, s, 1)-like, invertible (its rank test called it singular from 1e15 on)."""
+    dst = _SQ * scale + scale
+    out = apply_homography(homography_from_points(_SQ, dst), _SQ)
+    np.testing.assert_allclose(out, dst, rtol=1e-6)
+
+
 @pytest.mark.parametrize("H, culprit", [
     (np.full((3, 3), np.nan), "argument 'H': holds NaN"),
     (np.zeros((3, 3)), "argument 'H': singular"),
+    (np.array([[1, 2, 3], [2, 4, 6], [0, 0, 1.0]]), "argument 'H': singular"),
     ("abc", "argument 'H': expected a"),
     (np.array([[1, 0, 0], [0, 1, 0], [1, 0, 1.0]]), "argument 'points': point \\[-1.0, 5.0\\]"),
 ])
@@ -201,6 +211,40 @@ def test_birdseye_view_refuses_bad_extents(kwargs, culprit):
     image = call.pop("image")
     with pytest.raises(VisionError, match=culprit):
         birdseye_view(image, _overhead(), **call)
+
+
+def _looking_down(tilt_deg=0.0, dist=(0.0, 0.0, 0.0, 0.0, 0.0), f=300.0):
+    """A 640x480 camera 1 m above the plane z = 0, turned ``tilt_deg`` from straight down
+    towards +y."""
+    a = np.radians(tilt_deg)
+    turn = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    T = np.eye(4)
+    T[:3, :3] = np.diag([1.0, -1.0, -1.0]) @ turn
+    T[:3, 3] = [0.0, 0.0, 1.0]
+    K = np.array([[f, 0, 319.5], [0, f, 239.5], [0, 0, 1]])
+    return CameraModel(640, 480, K, np.array(dist, float), T)
+
+
+def test_birdseye_view_is_black_where_the_camera_cannot_see():
+    """A plane point behind the camera (a camera tilted 80 degrees sees the horizon) and one
+    past its lens model's fold (barrel k1 = -0.3 turns back at 1.054 focal lengths from
+    the axis) are black: they showed a mirrored and a folded copy of the image."""
+    bright = np.full((480, 640), 200, np.uint8)
+    cam = _looking_down(tilt_deg=80.0)
+    top = birdseye_view(bright, cam, x_range=(-2, 2), y_range=(-4, 4), resolution=0.02)
+    ys = 4 - (np.arange(top.shape[0]) + 0.5) * 0.02
+    behind = (np.c_[np.zeros_like(ys), ys, np.zeros_like(ys)] @ cam.T_camera_world[:3, :3].T
+              + cam.T_camera_world[:3, 3])[:, 2] <= 0
+    assert behind.sum() > 50 and not top[behind].any() and top[~behind].any()
+    cam = _looking_down(dist=(-0.3, 0.0, 0.0, 0.0, 0.0))
+    top = birdseye_view(bright, cam, x_range=(-3, 3), y_range=(-3, 3), resolution=0.01)
+    xs = -3 + (np.arange(600) + 0.5) * 0.01
+    X, Y = np.meshgrid(xs, xs[::-1])
+    r = np.hypot(X, Y)  # the ray's distance from the axis, in focal lengths
+    assert not top[r > 1.06].any()  # past the fold
+    uv = cam.project(np.c_[X.ravel(), Y.ravel(), np.zeros(X.size)]).reshape(600, 600, 2)
+    in_image = (uv >= 2).all(axis=2) & (uv[..., 0] <= 637) & (uv[..., 1] <= 477)
+    assert (top[(r < 1.04) & in_image] == 200).all()  # before it, what the image shows
 
 
 _OBJ = [[0, 0], [0.1, 0], [0.1, 0.1], [0, 0.1]]

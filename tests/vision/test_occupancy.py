@@ -57,6 +57,14 @@ def test_occupancy_grid_from_an_image_keeps_the_diagonal_gap():
     assert bfs_path(occ.grid, (0, 0), (9, 9), connectivity=8) is not None
 
 
+@pytest.mark.parametrize("polarity", ["bright", "dark"])
+def test_an_evenly_lit_empty_table_is_free(polarity):
+    """An image of one grey level holds no objects for Otsu's threshold to find, whatever
+    the polarity (every cell was occupied)."""
+    grid = occupancy_grid(np.full((120, 160), 90, np.uint8), cell_px=40, polarity=polarity)
+    assert not grid.grid.any() and grid.objects.count == 0
+
+
 def test_partial_cells_and_fill_fraction():
     img = np.zeros((25, 25), np.uint8)
     img[20:25, 20:25] = 255  # fills the partial corner cell completely

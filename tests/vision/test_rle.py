@@ -6,6 +6,7 @@ from hypothesis.extra.numpy import arrays
 
 from cell.errors import VisionError
 from cell.vision.rle import (
+    RunLength,
     coding_sizes,
     rle_decode,
     rle_encode,
@@ -174,3 +175,20 @@ def test_coding_sizes_refuses_a_bad_jpeg_quality(quality):
 def test_coding_sizes_bounds_the_array():
     with pytest.raises(VisionError, match="argument 'array': .* 4194304 pixels"):
         coding_sizes(np.zeros((2049, 2048), bool))
+
+
+def test_a_mask_whose_runs_do_not_alternate_is_refused():
+    """The byte form keeps a mask's first value only: runs 1, 1, 0 came back as 1, 0, 1."""
+    runs = RunLength((2, 4), True, np.array([1, 1, 0], np.uint8), np.array([3, 1, 4], np.int64))
+    for f in (rle_decode, rle_to_bytes):
+        with pytest.raises(VisionError, match="must alternate 0 and 1; runs 0 and 1 are both 1"):
+            f(runs)
+
+
+def test_a_shape_of_numpy_int32_cannot_overflow_the_size_check():
+    """65536 x 65536 in int32 wrapped to 0 pixels and passed; decoding then failed in numpy."""
+    big = RunLength((np.int32(65536), np.int32(65536)), True, np.zeros(0, np.uint8),
+                    np.zeros(0, np.int64))
+    for f in (rle_decode, rle_to_bytes):
+        with pytest.raises(VisionError, match="argument 'rle': shape must be two integers"):
+            f(big)

@@ -191,3 +191,27 @@ def test_a_tiny_region_is_less_than_circular_as_documented(rows, cols, value):
     mask = np.zeros((6, 6), bool)
     mask[1:1 + rows, 1:1 + cols] = True
     assert circularity(mask) == pytest.approx(value)
+
+
+def test_largest_region_is_the_one_with_most_pixels():
+    """A 2 x 200 wire (400 px) beside a 16 x 16 part with a hole (247 px): the wire is the
+    largest region, though the outline through its pixel centres encloses almost nothing;
+    a 1 x 100 line beats a 2 x 2 dot."""
+    m = np.zeros((60, 260), bool)
+    m[5:7, 20:220] = True
+    m[30:46, 30:46] = True
+    m[35:38, 35:38] = False
+    assert perimeter(m) == perimeter(m[:20]) == 400.0
+    assert count_holes(m) == 0 and count_holes(m[20:]) == 1
+    line = np.zeros((40, 120), bool)
+    line[5, 5:105] = True
+    line[20:22, 20:22] = True
+    assert perimeter(line) == 198.0
+
+
+def test_rect_angle_of_a_vertical_bar_is_in_the_documented_range():
+    """(-pi/2, pi/2], as orientation: a vertical bar is +pi/2 for both (was -pi/2)."""
+    m = np.zeros((40, 40), bool)
+    m[5:35, 18:22] = True
+    d = describe_shape(m)
+    assert d.rect_angle == pytest.approx(math.pi / 2) and d.orientation == pytest.approx(math.pi / 2)

@@ -37,6 +37,20 @@ def test_sad_matches_brute_force_and_equals_ssd_on_binary_images():
     np.testing.assert_allclose(match_sad(b, b[3:10, 5:14]), match_ssd(b, b[3:10, 5:14]), atol=1e-3)
 
 
+def test_ssd_of_uint8_images_is_exact_where_the_template_was_cut():
+    """An exact match scores (about) 0 and every score is the integer sum within 2e-7 of
+    its size (converted to float32 first, OpenCV's sums of squares cancelled: 32 off at
+    the match, up to 9e-7 of the sum elsewhere)."""
+    rng = np.random.default_rng(5)
+    img = (rng.random((480, 640)) * 255).astype(np.uint8)
+    tpl = img[200:264, 300:364].copy()
+    scores = match_ssd(img, tpl)
+    assert scores[200, 300] <= 1.0 and np.argmin(scores) == 200 * scores.shape[1] + 300
+    for y, x in rng.integers(0, 400, (50, 2)):
+        exact = float(((img[y:y + 64, x:x + 64].astype(np.int64) - tpl) ** 2).sum())
+        assert abs(scores[y, x] - exact) <= 2e-7 * exact
+
+
 def test_all_three_find_an_unchanged_patch():
     img, tpl = _scene()
     for method, fn in (("ssd", match_ssd), ("sad", match_sad), ("ncc", match_ncc)):

@@ -37,6 +37,15 @@ def test_otsu_agrees_with_scikit_image(seed):
     assert abs(threshold_otsu(img) - sk_otsu(img)) <= 1
 
 
+@pytest.mark.parametrize("level", [0, 90, 255])
+def test_otsu_of_one_grey_level_makes_no_bright_class(level):
+    """One level has no two classes: the threshold is the level (scikit-image's answer),
+    not OpenCV's 0, under which an evenly lit empty table was all object."""
+    img = np.full((48, 64), level, np.uint8)
+    assert threshold_otsu(img) == sk_otsu(img) == level
+    assert not (img > threshold_otsu(img)).any()
+
+
 def _is_isodata_fixed_point(img, t):
     """scikit-image's rule: t <= (mean of pixels <= t + mean of pixels > t) / 2 < t + 1."""
     low, high = img[img <= t], img[img > t]
@@ -216,3 +225,17 @@ def test_threshold_numbers_are_checked(call, name):
 def test_adaptive_offset_limits_are_accepted():
     assert not threshold_adaptive(_G, block_size=3, offset=255).any()
     assert threshold_adaptive(_G, block_size=3, offset=-255).all()
+
+
+@pytest.mark.parametrize("block_size", [3, 5, 7, 9, 31])
+def test_adaptive_gaussian_mean_is_the_documented_kernel(block_size):
+    """The Gaussian mean is ``cv2.getGaussianKernel(block_size, 0)``: OpenCV's fixed tables
+    for 3, 5 and 7 (the sigma rule the docstring gave alone differed at 408-665 pixels of
+    76,800), its sigma rule from 9 on. Decisions compared; a rounding tie may differ."""
+    img = cv2.GaussianBlur(np.random.default_rng(0).integers(0, 256, (240, 320), dtype=np.uint8),
+                           (0, 0), 1.5)
+    k = cv2.getGaussianKernel(block_size, 0)
+    mean = cv2.sepFilter2D(img.astype(np.float64), -1, k, k, borderType=cv2.BORDER_REPLICATE)
+    documented = img > np.rint(mean) + 2
+    got = threshold_adaptive(img, block_size=block_size, offset=2, method="gaussian")
+    assert np.count_nonzero(documented != got) <= 5

@@ -53,6 +53,19 @@ def _terminate(signum: int, frame: object) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``cell COMMAND ...`` (``argv``; None: the program's own arguments) and return
+    its exit status. As the program, Ctrl-C and SIGTERM are ignored once the command is
+    done, while the interpreter shuts down (MuJoCo's EGL display, rerun's threads: tens of
+    milliseconds): the work is whole by then, and a signal there gave a traceback of the
+    shutdown, or a status of 130 with no word."""
+    status = _command(argv)
+    if argv is None and threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):  # (an ignored signal stays ignored
+            signal.signal(sig, signal.SIG_IGN)       # through the shutdown; a handler not)
+    return status
+
+
+def _command(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
         print(_usage(), file=sys.stderr)

@@ -56,13 +56,15 @@ class StagedFiles:
     """Files that are written together, whole or not at all (module docstring).
 
     :meth:`add` writes each to a temporary file beside its target and checks it;
-    :meth:`commit` renames them all into place (``also``, a callable, runs last, still
-    with the signals held: a recording's own rename, say); :meth:`discard` removes what
-    was staged and not committed. Use it as a context manager: leaving the block
-    discards."""
+    :meth:`remove` names an output of an earlier run that this one does not make (removed
+    with the renames, so the folder never mixes two runs' files); :meth:`commit` renames
+    them all into place (``also``, a callable, runs last, still with the signals held: a
+    recording's own rename, say); :meth:`discard` removes what was staged and not
+    committed. Use it as a context manager: leaving the block discards."""
 
     def __init__(self) -> None:
         self._staged: list[tuple[str, Path, str]] = []  # (temporary file, target, kind)
+        self._stale: list[tuple[Path, str]] = []  # (an old output to remove, kind)
 
     def __enter__(self) -> StagedFiles:
         return self
@@ -76,9 +78,14 @@ class StagedFiles:
         path = Path(path)
         self._staged.append((_staged(path, data, check=check, kind=kind, error=error), path, kind))
 
+    def remove(self, path: str | Path, *, kind: str = "file") -> None:
+        """Remove ``path`` at :meth:`commit`, if it is then a file (a link: the link)."""
+        self._stale.append((Path(path), kind))
+
     def commit(self, *, also: Callable[[], None] | None = None,
                error: type[CellError] = CellError) -> None:
-        """Rename every staged file into place, then run ``also``; signals held meanwhile."""
+        """Rename every staged file into place and remove the stale ones, then run
+        ``also``; signals held meanwhile."""
         with signals_held():
             for tmp, path, kind in self._staged:
                 try:
@@ -86,18 +93,27 @@ class StagedFiles:
                 except OSError as exc:
                     raise error(f"cannot write {kind} {escape(repr(str(path)))}: "
                                 f"{escape(exc.strerror or str(exc))}") from None
+            for path, kind in self._stale:
+                try:
+                    if path.is_symlink() or path.is_file():
+                        path.unlink()
+                except OSError as exc:
+                    raise error(f"cannot remove the earlier run's {kind} "
+                                f"{escape(repr(str(path)))}: "
+                                f"{escape(exc.strerror or str(exc))}") from None
             if also is not None:
                 also()
-        for folder in {path.parent if str(path.parent) else Path(".") for _, path, _ in self._staged}:
+        paths = [path for _, path, _ in self._staged] + [path for path, _ in self._stale]
+        for folder in {path.parent if str(path.parent) else Path(".") for path in paths}:
             _fsync_dir(folder)
-        self._staged = []
+        self._staged, self._stale = [], []
 
     def discard(self) -> None:
         """Remove the staged files not yet renamed into place."""
         for tmp, *_ in self._staged:
             if os.path.exists(tmp):
                 os.unlink(tmp)
-        self._staged = []
+        self._staged, self._stale = [], []
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, *, check: Callable[[str], None] | None = None,

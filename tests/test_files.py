@@ -98,3 +98,27 @@ def test_a_failure_inside_signals_held_is_reported_not_the_signal_it_held():
         os.kill(os.getpid(), signal.SIGINT)
         raise ValueError("the real error")
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_staged_files_remove_an_earlier_output_with_the_renames_only(tmp_path):
+    """An output this run does not make goes at commit, with the new files; not before,
+    and not when the block fails (a missing one is no error)."""
+    old, new = tmp_path / "detections.png", tmp_path / "report.json"
+    old.write_bytes(b"earlier run")
+
+    def refuse(_tmp):
+        raise CellError("refused")
+
+    with pytest.raises(CellError, match="refused"), StagedFiles() as files:
+        files.add(new, b"{}")
+        files.remove(old)
+        files.remove(tmp_path / "never.png")
+        assert old.exists()
+        files.add(tmp_path / "bad", b"x", check=refuse)
+    assert old.exists() and not new.exists()
+    with StagedFiles() as files:
+        files.add(new, b"{}")
+        files.remove(old)
+        files.remove(tmp_path / "never.png")
+        files.commit()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]

@@ -214,6 +214,8 @@ def _write(run: object, args: argparse.Namespace, scenario: Scenario, outputs: _
         if image is not None:
             files.add(outputs.image.path, image, kind="image", error=JobError)
             written.append(outputs.image.path)
+        elif outputs.image is not None:  # no capture saw a part: no earlier run's image
+            files.remove(outputs.image.path, kind="detections.png")
         if run.replay is not None:
             written.append(outputs.replay.path)
         files.commit(also=run.replay.commit if run.replay is not None else None, error=JobError)

@@ -10,13 +10,17 @@ A worker that dies (killed, out of memory) breaks the pool: the chunks it had no
 returned are submitted again to a fresh pool (a line on stderr says so), up to
 ``MAX_RESTARTS`` times in one sweep, then the sweep stops with a ``SweepError`` (finished
 rows are kept: ``--resume``). Ctrl-C stops the workers at once (their unfinished chunks
-are lost, never half written) and re-raises ``KeyboardInterrupt``.
+are lost, never half written) and re-raises ``KeyboardInterrupt``. A worker whose parent
+is gone without closing the pool (``kill -9``) ends within a second.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import os
 import sys
+import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -30,8 +34,20 @@ __all__ = ["MAX_RESTARTS", "LocalPool"]
 MAX_RESTARTS = 3
 
 
-def _init(render_threads: int) -> None:
+def _init(render_threads: int, parent: int) -> None:
     init_process(render_threads, quiet_interrupt=True)
+    threading.Thread(target=_exit_with, args=(parent,), name="cell-parent-watch",
+                     daemon=True).start()
+
+
+def _exit_with(parent: int) -> None:
+    """End this worker within a second of its parent process (pid ``parent``) ending
+    without closing the pool (``kill -9``, the out-of-memory killer): a worker inherits
+    both ends of the pool's queues, so it never sees them close, and it held the sweep's
+    stdout open (``cell sweep ... | tee log`` did not end)."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os._exit(1)
 
 
 class LocalPool:
@@ -63,7 +79,8 @@ class LocalPool:
     def _start(self) -> ProcessPoolExecutor:
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-            initializer=_init, initargs=(self.render_threads,), max_tasks_per_child=self.recycle)
+            initializer=_init, initargs=(self.render_threads, os.getpid()),
+            max_tasks_per_child=self.recycle)
         return self._pool
 
     def _stop(self, *, kill: bool) -> None:

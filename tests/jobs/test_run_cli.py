@@ -56,6 +56,23 @@ def test_the_calibration_written_is_reused(demo, tmp_path):
     assert not (tmp_path / "r.calibration.json").exists()
 
 
+def test_a_run_that_saw_no_part_leaves_no_earlier_image_beside_its_report(demo, tmp_path):
+    """The folder holds one run's files: a run whose captures saw no part (the belt stands
+    still) removes the detections.png an earlier run wrote there (it stayed, beside the
+    new report)."""
+    out, _ = demo
+    calibration = str(out / "report.calibration.json")
+    first = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", "--calibration",
+                  calibration, "--report", str(tmp_path / "report.json"))
+    assert first.returncode == 0 and (tmp_path / "detections.png").is_file(), first.stderr
+    still = _cell("run", "scenarios/sort.toml", "--set", "parts.count=1", "--set",
+                  "conveyor.speed=0", "--set", "sort.arrival_timeout=1", "--calibration",
+                  calibration, "--report", str(tmp_path / "report.json"))
+    assert still.returncode == 0, still.stderr
+    assert "detections.png" not in still.stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
+
+
 def test_replay_verifies_with_rerun_and_holds_the_run(demo):
     out, _ = demo
     env = {**os.environ, "CI": "1"}

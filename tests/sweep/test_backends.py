@@ -182,6 +182,33 @@ def test_a_killed_worker_loses_nothing(tmp_path):
     assert sorted(rows) == sorted(r.run_id for r in plan.runs)
 
 
+def test_workers_end_with_a_killed_sweep(tmp_path):
+    """kill -9 of the sweep (the out-of-memory killer) left its workers waiting forever,
+    holding its stdout open (``cell sweep ... | tee log`` did not end): they end within
+    seconds now."""
+    sweep, out = write_tiny(tmp_path, LONG), tmp_path / "out"
+    slow, gate = _slow_until_removed(tmp_path)
+    proc = _cell("sweep", str(sweep), "--out", str(out), "--workers", "2", env=slow)
+    _wait_rows(out / "results.csv", 2, proc)
+    workers = _worker_pids(proc.pid)
+    assert workers, "no worker process found"
+    proc.kill()
+    proc.communicate(timeout=30)  # (returns once no process holds its pipes)
+    gate.unlink()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and any(_running(w) for w in workers):
+        time.sleep(0.2)
+    assert not any(_running(w) for w in workers)
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` is a live process (not gone, not a zombie waiting for init)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def _job(fail: dict[str, Exception]):
     """A job whose run ``task.scenario`` (a name here) raises ``fail[name]``, if any."""
 

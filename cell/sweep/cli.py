@@ -63,8 +63,10 @@ def main(argv: list[str]) -> int:
               "--resume to do the rest", file=sys.stderr)
         return 143 if terminated else 130
     out = escape(str(result.out))
+    earlier = (f"; {result.failed_before} of the resumed had failed, not run again: their rows "
+               "say why" if result.failed_before else "")
     print(f"sweep {escape(repr(args.sweep))}: {result.total} runs ({result.resumed} resumed, "
-          f"{result.ran} run now, {result.failed} failed) in {clock(result.wall_s)}")
+          f"{result.ran} run now, {result.failed} failed{earlier}) in {clock(result.wall_s)}")
     if result.cut_bytes:
         print(f"  dropped a half-written last row ({result.cut_bytes} bytes) of an interrupted "
               "session; that run was done again")

@@ -190,6 +190,11 @@ def parse_axes(table: dict, where: str, *, reserved: tuple[str, ...] = ()) -> li
             continue
         if isinstance(value, list) and any(isinstance(v, dict) and not _is_range(v) for v in value):
             raise SweepError(f"{where}: key '{escape(key)}' mixes tables and values")
+        if isinstance(value, dict) and "from" in value and not _is_range(value):
+            extra = sorted(escape(str(k)) for k in set(value) - _RANGE_KEYS)
+            raise SweepError(f"{where}: range of key '{escape(key)}': unknown key "
+                             f"{', '.join(repr(k) for k in extra)}; a range takes 'from', 'to' "
+                             "and 'step' or 'count'")
         if isinstance(value, dict) and not _is_range(value):
             axes += parse_axes({f"{_deeper(key, where)}.{k}": v for k, v in value.items()}, where)
             continue
@@ -200,7 +205,22 @@ def parse_axes(table: dict, where: str, *, reserved: tuple[str, ...] = ()) -> li
             if key in seen:
                 raise SweepError(f"{where}: key '{escape(key)}' is given twice")
             seen.add(key)
+        values = [repr(_same(v)) for v in axis.values]
+        if len(set(values)) < len(values):  # (one run each: the grid would say more values)
+            twice = next(v for v in axis.values if values.count(repr(_same(v))) > 1)
+            shown = show(twice[0] if len(twice) == 1 else dict(zip(axis.keys, twice, strict=True)))
+            raise SweepError(f"{where}: key '{escape(', '.join(axis.keys))}' lists the value "
+                             f"{shown} twice")
     return axes
+
+
+def _same(value: object) -> object:
+    """``value`` with its numbers as floats: 100 and 100.0 are one setting."""
+    if isinstance(value, tuple | list):
+        return tuple(_same(v) for v in value)
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
 
 
 def size(axes: list[Axis] | tuple[Axis, ...]) -> int:

@@ -151,6 +151,11 @@ def plan_sweep(spec: SweepSpec) -> Plan:
         if key not in known:
             raise SweepError(f"{escape(spec.source)}: unknown key '{escape(key)}' in [job]; valid keys: "
                              f"{', '.join(sorted(known))}")
+    fixed = {k: "[scenario]" for k, _ in spec.scenario} | {k: "[job]" for k, _ in spec.job}
+    for i, case in enumerate(spec.cases, 1):
+        for key in (k for axis in case.axes for k in axis.keys if k in fixed):
+            raise SweepError(f"{escape(spec.source)}: case {i}: key '{escape(key)}' is both fixed "
+                             f"in {fixed[key]} and varied in the grid; keep one")
     columns = _columns(spec, modules)
     runs: dict[str, Run] = {}
     settings_cache: dict[str, Any] = {}

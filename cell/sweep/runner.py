@@ -23,7 +23,7 @@ from cell.sweep.jobs import job_module
 from cell.sweep.output import RESULTS, prepare_out, remove_temporaries, sweep_lock
 from cell.sweep.plan import Plan, Run, param_value, plan_sweep
 from cell.sweep.progress import Progress
-from cell.sweep.results import open_results
+from cell.sweep.results import open_results, read_rows
 from cell.sweep.spec import load_sweep
 from cell.sweep.worker import Chunk, Outcome, Task
 
@@ -77,7 +77,9 @@ class SweepOptions:
 class SweepRun:
     """What a sweep did: the output folder, the ``total`` runs of the grid, ``resumed``
     (already in results.csv), ``ran`` now, ``failed`` of those, ``cut_bytes`` of a
-    half-written row dropped on resume, the report's ``files`` and the ``wall_s``."""
+    half-written row dropped on resume, the report's ``files``, the ``wall_s`` and
+    ``failed_before``: the resumed runs whose rows hold an error (a failed run is a
+    result: ``--resume`` does not run it again)."""
 
     out: Path
     total: int
@@ -87,6 +89,7 @@ class SweepRun:
     cut_bytes: int
     files: tuple[str, ...]
     wall_s: float
+    failed_before: int = 0
 
 
 def make_chunks(runs: list[Run], *, chunk_runs: int) -> Iterator[Chunk]:
@@ -178,8 +181,13 @@ def _run_plan(plan: Plan, out: Path, options: SweepOptions, backend: object | No
         from cell.sweep.reports import write_report
 
         files = write_report(plan, out)
+    before = 0
+    if resumed:
+        _, rows = read_rows(out / RESULTS)
+        earlier = {r.run_id for r in plan.runs} - set(by_id)
+        before = sum(1 for r in rows if r.get("error") and r.get("run_id") in earlier)
     return SweepRun(out, len(plan.runs), resumed, counts["ran"], counts["failed"], cut, files,
-                    time.perf_counter() - t0)
+                    time.perf_counter() - t0, before)
 
 
 def run_sweep(path: str | Path, *, out: str, options: SweepOptions | None = None) -> SweepRun:

@@ -132,3 +132,45 @@ def test_sweep_options_made_in_code_are_checked_before_anything_is_written():
                 {"chunk_runs": 0}):
         with pytest.raises(SweepError, match="SweepOptions: "):
             SweepOptions(**bad)
+
+
+_DARK_SHY = '''
+import numpy as np
+from cell.vision.detector import PartDetector
+
+
+class DarkShy:
+    """Fails on a dark frame, as a user's detector might."""
+
+    def __init__(self, settings):
+        self.inner = PartDetector(settings)
+
+    def detect(self, image, camera):
+        if float(np.mean(image)) < 60:
+            raise RuntimeError("too dark for me")
+        return self.inner.detect(image, camera)
+'''
+
+
+def test_failed_runs_are_reported_by_light_and_counted_on_resume(tmp_path):
+    """A light whose every run failed is a row of the lighting report and a finding (it
+    vanished, and the report ranked front against itself: 'the same share under every
+    light'); the failed runs name their light; --resume says how many resumed runs had
+    failed (it said 0 failed)."""
+    (tmp_path / "dark_shy.py").write_text(_DARK_SHY)
+    sweep = write_tiny(tmp_path, "[sweep]\nname = \"shy\"\ntitle = \"shy\"\njob = \"detect\"\n"
+                       "seeds = [1]\nreport = \"lighting\"\n[scenario]\n\"parts.count\" = 2\n"
+                       "\"vision.detector\" = \"dark_shy:DarkShy\"\n[grid]\n"
+                       "lighting = [\"front\", \"dim\"]\n")
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+           "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    run = [sys.executable, "-m", "cell.cli", "sweep", str(sweep), "--out", str(tmp_path / "o"),
+           "--workers", "1"]
+    first = subprocess.run(run, capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+    assert first.returncode == 0 and "1 failed" in first.stdout, first.stderr
+    summary = (tmp_path / "o" / "summary.md").read_text()
+    assert "- dim: every run failed" in summary and "every light" not in summary
+    assert "| dim |" in summary and "lighting = 'dim'): " in summary
+    again = subprocess.run([*run, "--resume"], capture_output=True, text=True, cwd=ROOT, env=env,
+                           timeout=300)
+    assert "1 of the resumed had failed" in again.stdout, again.stdout

@@ -50,6 +50,10 @@ def test_a_list_of_tables_sets_keys_together_and_sections_flatten():
     ({"a": {"from": math.inf, "to": 1}}, "finite"),
     ({"a": [{"x": 1}, 2]}, "mixes"),
     ({"a": [{"x": 1}, {"y": 2}]}, "same keys"),
+    ({"a": [100, 100.0, 150]}, "key 'a' lists the value 100 twice"),  # (was one run, "3 values")
+    ({"a": {"from": 0, "to": 10, "stp": 2}},  # (was "key 'a' is not a section")
+     "range of key 'a': unknown key 'stp'; a range takes 'from', 'to' and 'step' or 'count'"),
+    ({"a": [{"x": 1, "y": 2}, {"x": 1, "y": 2}]}, "lists the value {'a.x': 1, 'a.y': 2} twice"),
 ])
 def test_bad_axes_name_the_key(table, words):
     with pytest.raises(SweepError, match=words) as info:
@@ -119,6 +123,11 @@ def test_a_case_runs_another_job_with_its_own_seeds(tmp_path):
     ('[sweeps]\n', "unknown section 'sweeps'"),
     ('[grid]\nseed = [1, 2]\n', "'seed' is not a grid key"),
     ('[grid]\n"lighting.x" = [1]\n', "'lighting' is not a section"),
+    ('[scenario]\n"parts.count" = 6\n[grid]\n"parts.count" = [2, 3]\n',  # (runs took 2 and 3:
+     # summary.md said "fixed: parts.count = 6")
+     "case 1: key 'parts.count' is both fixed in [scenario] and varied in the grid"),
+    ('[job]\ngap_mm = 1.0\n[grid]\n"job.gap_mm" = [2.0, 3.0]\n',
+     "key 'job.gap_mm' is both fixed in [job] and varied"),
 ])
 def test_bad_sweep_files_are_one_error(tmp_path, text, words):
     with pytest.raises(SweepError) as info:

@@ -30,14 +30,32 @@ def test_lighting_with_every_part_found_under_every_light_ranks_none():
     rows = [{"job": "detect", "lighting": li, "recall": 1.0, "kind_accuracy": 1.0,
              "material_accuracy": acc, "material_unknown": unknown, "position_error_mm_mean": 0.1}
             for li, acc, unknown in (("front", 1.0, 0.0), ("back", 0.0, 1.0))]
-    heads = lighting.build(rows, None).headlines
-    assert heads[0] == "detector: the same share of parts found under every light (100%)"
+    report = lighting.build(rows, None)
+    assert report.headlines[0] == "detector: the same share of parts found under every light (100%)"
+    assert "| back | 100% | 100% | unknown |" in report.tables[0]  # as the plot says (was 0%)
 
 
 def test_the_generic_report_leads_with_a_metric_that_changes():
     rows = [{"lighting": li, "parts": 6, "found": found} for li, found in (("front", 6), ("dim", 4))]
     report = generic.overview(rows, ("lighting",), ("parts", "found"))
     assert report.headlines[0].startswith("found: highest 6 at lighting=front; lowest 4")
+
+
+def test_the_generic_plot_puts_each_point_under_its_own_label(monkeypatch):
+    """Lines over a text axis share its positions: otsu's "front" and "raking" points were
+    drawn under belt's "raking" and "dim" labels (each line counted its own values)."""
+    figures = []
+    monkeypatch.setattr(generic, "png", lambda fig: figures.append(fig) or b"")
+    rows = [{"lighting": li, "vision.segmentation": seg, "found": n}
+            for li, seg, n in (("front", "otsu", 4), ("raking", "otsu", 5),
+                               ("raking", "belt", 6), ("dim", "belt", 7))]
+    generic.overview(rows, ("lighting", "vision.segmentation"), ("found",))
+    ax = figures[0].axes[0]
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    drawn = {line.get_label(): {ticks[int(x)]: y for x, y in zip(*line.get_data(), strict=True)}
+             for line in ax.get_lines()}
+    assert drawn == {"vision.segmentation=otsu": {"front": 4, "raking": 5},
+                     "vision.segmentation=belt": {"raking": 6, "dim": 7}}
 
 
 def test_threshold_calls_a_method_that_finds_the_same_everywhere_so():
@@ -72,3 +90,30 @@ def test_a_report_leaves_the_callers_matplotlib_backend_alone():
             "print(matplotlib.get_backend(), plt.get_fignums())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["svg", "[1]"]
+
+
+def test_threshold_without_a_detect_run_still_reports_the_sort_runs():
+    """Twelve finished sort runs came out as 'No detect run finished.' alone."""
+    from cell.sweep.reports import threshold
+
+    rows = [{"job": "sort", "lighting": "front", "vision.segmentation": "otsu",
+             "vision.threshold": 150.0, "sort_accuracy": 0.75, "classification_accuracy": 1.0,
+             "rejected": 1.0, "missed": 0.0}]
+    report = threshold.build(rows, None)
+    assert report.headlines == ("No detect run finished.",
+                                "sort job, front, otsu: sort accuracy 75%")
+    assert "| front | otsu | 75% | 100% | 1.0 | 0.0 |" in report.tables[0]
+
+
+def test_the_smoothing_plot_names_the_line_styles_as_drawn(monkeypatch):
+    """Styles follow the file's order of filters, the kernel its size: the label said
+    'solid: Gaussian 3x3, dashed: median 3x3' whatever the order and size."""
+    from cell.sweep.reports import smoothing
+
+    figures = []
+    monkeypatch.setattr(smoothing, "png", lambda fig: figures.append(fig) or b"")
+    rows = [{"job": "smooth", "job.filter": f, "job.iterations": n, "job.ksize": 5,
+             "sensor.noise_std": 10.0, "sensor.salt_pepper": 0.0, "fg_iou": 0.9,
+             "position_error_mm_mean": 0.1} for f in ("median", "gaussian") for n in (0, 1)]
+    smoothing.build(rows, None)
+    assert figures[0].axes[0].get_xlabel() == "filter passes (solid: median 5x5, dashed: gaussian 5x5)"

@@ -54,15 +54,16 @@ def overview(rows: list[dict], params: tuple[str, ...], metrics: tuple[str, ...]
     x = (numeric or keys or [None])[0]
     others = [k for k in keys if k != x]
     fig, axes = figure(len(shown), 1, size=(7.0, 2.6 * len(shown)))
+    ticks = values(rows, x) if x else [0]  # every line's points at these positions
     for ax, metric in zip(axes[:, 0], shown, strict=True):
         for combo, members in list(group(rows, *others).items())[:_LINES]:
             xs = values(members, x) if x else [0]
             ys = [mean([r for r in members if x is None or r.get(x) == v], metric) for v in xs]
             name = ", ".join(f"{k}={label(v)}" for k, v in zip(others, combo, strict=True)) or None
-            ax.plot(range(len(xs)) if x not in numeric else xs,
+            ax.plot([ticks.index(v) for v in xs] if x not in numeric else xs,
                     [y if y is not None else float("nan") for y in ys], marker="o", label=name)
-            if x not in numeric and x is not None:
-                ax.set_xticks(range(len(xs)), [label(v) for v in xs], rotation=30)
+        if x not in numeric and x is not None:
+            ax.set_xticks(range(len(ticks)), [label(v) for v in ticks], rotation=30)
         ax.set_ylabel(metric)
         ax.set_xlabel(x or "")
         if others:

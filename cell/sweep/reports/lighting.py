@@ -77,19 +77,26 @@ def _figure(lights: list[str], by: dict) -> bytes:
     return png(fig)
 
 
+def _material(by: dict, li: str) -> str:
+    """The table's material cell: as the plot says it (``unknown`` under a back light)."""
+    share = _share(by, "detect", "material_accuracy", li)
+    return number(share, ".0%") if isinstance(share, float) else "-" if share != "unknown" else share
+
+
 def build(rows: list[dict], plan) -> Report:
+    failed = {light(r) for r in rows if r.get("error")} - {light(r) for r in done(rows)}
     rows = done(rows)
     if not rows:
         return Report(("No run finished.",), (), ())
     by: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
         by.setdefault((str(r.get("job")), light(r)), []).append(r)
-    lights = _order({li for _, li in by})
-    body, heads = [], []
+    lights = _order({li for _, li in by} | failed)  # (a light whose every run failed: a row)
+    body, heads = [], [f"{li}: every run failed (see below)" for li in _order(failed)]
     for li in lights:
         d, s = by.get(("detect", li), []), by.get(("sort", li), [])
         body.append([li, number(mean(d, "recall"), ".0%"), number(mean(d, "kind_accuracy"), ".0%"),
-                     number(mean(d, "material_accuracy"), ".0%"),
+                     _material(by, li),
                      number(mean(d, "position_error_mm_mean"), ".2f"),
                      number(mean(s, "sort_accuracy"), ".0%"),
                      number(mean(s, "classification_accuracy"), ".0%"),
@@ -97,7 +104,11 @@ def build(rows: list[dict], plan) -> Report:
     detect_rank = sorted((li for li in lights if ("detect", li) in by),
                          key=lambda li: (mean(by[("detect", li)], "recall") or 0,
                                          mean(by[("detect", li)], "material_accuracy") or 0), reverse=True)
-    if detect_rank:
+    if len(detect_rank) == 1:  # (one light is no ranking)
+        li = detect_rank[0]
+        heads.append(f"detector: {number(mean(by[('detect', li)], 'recall'), '.0%')} of the parts "
+                     f"found under {li}, the only light with a finished detect run")
+    elif detect_rank:
         best, worst = detect_rank[0], detect_rank[-1]
         found = {li: number(mean(by[("detect", li)], "recall"), ".0%") for li in detect_rank}
         if found[best] == found[worst]:  # (as printed: a tie is no ranking)
@@ -106,7 +117,7 @@ def build(rows: list[dict], plan) -> Report:
             heads.append(f"detector: most parts found under {best} ({found[best]}), fewest under "
                          f"{worst} ({found[worst]})")
     placed = [li for li in lights if mean(by.get(("detect", li), []), "position_error_mm_mean") is not None]
-    if placed:
+    if len(placed) > 1:
         err = {li: mean(by[("detect", li)], "position_error_mm_mean") for li in placed}
         lo, hi = min(placed, key=err.get), max(placed, key=err.get)
         heads.append(f"detector position: most precise under {lo} ({err[lo]:.2f} mm mean), least "

@@ -33,6 +33,10 @@ def build(rows: list[dict], plan) -> Report:
     passes = values(rows, "job.iterations")
     filters = values(rows, "job.filter")
     kinds = [k for k in ("gaussian", "salt & pepper") if any(noise(r)[0] == k for r in rows)]
+    sizes = values(rows, "job.ksize")
+    size = f" {sizes[0]}x{sizes[0]}" if len(sizes) == 1 else ""
+    styles = ", ".join(f"{style}: {filt}{size}"  # (the line styles, in the order drawn)
+                       for filt, style in zip(filters, ("solid", "dashed", "dotted"), strict=False))
     fig, axes = figure(len(kinds), 2, size=(11.0, 3.8 * len(kinds)))
     heads, body = [], []
     for i, kind in enumerate(kinds):
@@ -46,7 +50,7 @@ def build(rows: list[dict], plan) -> Report:
                     ys = [mean(_cell(rows, kind, level, filt, n), metric) for n in passes]
                     ax.plot(passes, [y if y is not None else float("nan") for y in ys], ls=ls, marker="o",
                             markersize=3, color=colour, label=f"{level:g} {filt}")
-            ax.set_xlabel("filter passes (solid: Gaussian 3x3, dashed: median 3x3)")
+            ax.set_xlabel(f"filter passes ({styles})")
             ax.set_ylabel(name)
             unit = "sigma, grey levels" if kind == "gaussian" else "share of pixels"
             ax.set_title(f"{kind} noise ({unit})", fontsize=9)

@@ -51,14 +51,18 @@ def summary_text(plan, rows: list[dict], report) -> str:
         for p in report.plots:
             out += [f"![{p.caption}]({p.file})", "", f"*{p.caption}*", ""]
     if report.tables:
-        out += ["## Figures (mean over seeds)", ""]
+        out += ["## Figures (mean over seeds; a rate is each run's own, so a run counts once "
+                "whatever its number of parts)", ""]
         for t in report.tables:
             out += [t, ""]
     errors = [r for r in rows if r.get("error")]
     if errors:
         out += ["## Runs that failed", ""]
+        varied = dict.fromkeys(k for case in spec.cases for axis in case.axes for k in axis.keys)
         for r in errors[:10]:
-            out.append(f"- `{r['run_id']}` (seed {r.get('seed')}): {escape(str(r['error']))}")
+            where = "".join(f", {escape(k)} = {escape(repr(r[k]))}" for k in varied
+                            if r.get(k) is not None)
+            out.append(f"- `{r['run_id']}` (seed {r.get('seed')}{where}): {escape(str(r['error']))}")
         if len(errors) > 10:
             out.append(f"- ... and {len(errors) - 10} more (the `error` column of `{RESULTS}`)")
         out.append("")

@@ -103,8 +103,9 @@ def build(rows: list[dict], plan) -> Report:
     thresholds = values(fixed, "vision.threshold")
     methods = [m for m in METHODS if any(r.get("vision.segmentation") == m for r in det)]
     columns = thresholds + methods
-    if not det:
-        return Report(("No detect run finished.",), (), ())
+    if not det:  # (the sort runs still have their table)
+        heads, tables = _sort_figures(sort)
+        return Report(("No detect run finished.", *heads), (), tables)
     recall = matrix(det, "recall", presets, columns, lambda r: r.get("lighting"), _x)
     iou = matrix(det, "fg_iou", presets, columns, lambda r: r.get("lighting"), _x)
     bands = {p: band(recall[i][: len(thresholds)]) for i, p in enumerate(presets)}
@@ -127,19 +128,26 @@ def build(rows: list[dict], plan) -> Report:
             worst = presets[col.index(min(known))]
             heads.append(f"{m}: finds {min(known):.0%} to {max(known):.0%} of the parts over the "
                          f"{len(known)} presets (worst under {worst})")
-    tables = [markdown(["preset", "fixed band", "fixed 150"] + [f"{m} found / IoU" for m in methods], body)]
-    if sort:
-        sbody = []
-        cells = group(sort, "lighting", "vision.segmentation", "vision.threshold")
-        for (light, seg, t), members in cells.items():
-            name = f"fixed {t}" if seg == "fixed" else seg
-            sbody.append([str(light), name, number(mean(members, "sort_accuracy"), ".0%"),
-                          number(mean(members, "classification_accuracy"), ".0%"),
-                          number(mean(members, "rejected"), ".1f"), number(mean(members, "missed"), ".1f")])
-            heads.append(f"sort job, {light}, {name}: sort accuracy "
-                         f"{number(mean(members, 'sort_accuracy'), '.0%')}")
-        tables.append(markdown(["light", "segmentation", "sort accuracy", "classification", "rejected",
-                                "missed"], sbody))
+    sort_heads, sort_tables = _sort_figures(sort)
+    tables = (markdown(["preset", "fixed band", "fixed 150"] + [f"{m} found / IoU" for m in methods],
+                       body), *sort_tables)
     plot = Plot(PLOTS[0], "parts found and foreground IoU per light: fixed thresholds 0-255 "
                 "and the four methods", _figure(det, presets, columns, len(thresholds), bands))
-    return Report(tuple(heads), (plot,), tuple(tables))
+    return Report((*heads, *sort_heads), (plot,), tables)
+
+
+def _sort_figures(sort: list[dict]) -> tuple[list[str], tuple[str, ...]]:
+    """Headlines and the table of the sort job's rows, per light and segmentation."""
+    if not sort:
+        return [], ()
+    heads, body = [], []
+    cells = group(sort, "lighting", "vision.segmentation", "vision.threshold")
+    for (light, seg, t), members in cells.items():
+        name = f"fixed {t}" if seg == "fixed" else seg
+        body.append([str(light), name, number(mean(members, "sort_accuracy"), ".0%"),
+                     number(mean(members, "classification_accuracy"), ".0%"),
+                     number(mean(members, "rejected"), ".1f"), number(mean(members, "missed"), ".1f")])
+        heads.append(f"sort job, {light}, {name}: sort accuracy "
+                     f"{number(mean(members, 'sort_accuracy'), '.0%')}")
+    return heads, (markdown(["light", "segmentation", "sort accuracy", "classification", "rejected",
+                             "missed"], body),)

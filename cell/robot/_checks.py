@@ -26,6 +26,6 @@ def finite_vector(name: str, value: object, size: int, error: type[CellError]) -
     except (TypeError, ValueError):
         arr = None
     if arr is None or arr.shape != (size,) or not np.isfinite(arr).all():
-        shown = getattr(value, "shape", None) or value
+        shown = arr.tolist() if arr is not None and arr.size <= 16 else getattr(value, "shape", value)
         raise error(f"argument {name!r}: expected {size} finite numbers, got {shown!r}")
     return arr

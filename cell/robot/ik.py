@@ -28,6 +28,7 @@ every solve; the error then says "not to the tolerance", not "unreachable".
 
 from __future__ import annotations
 
+import math
 import time
 
 import mink
@@ -56,6 +57,7 @@ _IK_VMAX = np.pi
 # an unconverged solve this near its target (m, rad: the default ik_tolerance) is
 # reported as "not to the tolerance", not as out of reach or blocked
 _NEAR_P, _NEAR_R = 1e-4, 1e-3
+_INSIDE = 0.0005  # m: a cup sunk deeper into the furniture is no solution (resting on it is)
 
 
 def down_rotation(yaw: float) -> np.ndarray:
@@ -113,7 +115,8 @@ class ArmIK:
                                          minimum_distance_from_collisions=0.01,
                                          collision_detection_distance=0.05),
         ]
-        self._link_ids = {m.geom(g).id for g in links + [_PREFIX + "cup"]}
+        self._cup_id = m.geom(_PREFIX + "cup").id
+        self._link_ids = {m.geom(g).id for g in links} | {self._cup_id}
         self._obstacle_ids = {m.geom(g).id for g in obstacles}
         self.stats: list[tuple[float, int]] = []
 
@@ -126,8 +129,9 @@ class ArmIK:
         return site.xpos.copy(), site.xmat.reshape(3, 3).copy()
 
     def collides(self, q: np.ndarray, *, clearance: float = 0.0) -> str | None:
-        """Name of the first arm link nearer than ``clearance`` (m) to the furniture at
-        ``q``, or None."""
+        """Name of the first arm link nearer than ``clearance`` (m, finite) to the furniture
+        at ``q``, or None."""
+        clearance = finite("clearance", clearance, RobotError)
         m, d = self.model, self.data
         d.qpos[:] = finite_vector("q", q, 6, RobotError)
         mujoco.mj_kinematics(m, d)
@@ -139,16 +143,36 @@ class ArmIK:
                     return f"{m.geom(a).name} vs {m.geom(b).name}"
         return None
 
+    def base_turn(self, q_ref: np.ndarray, position: np.ndarray) -> float:
+        """How far (rad, in (-pi, pi]) the base turns from the tool-down pose ``q_ref`` to a
+        tool-down pose at ``position`` (m), the arm keeping its shape's branch. Not the
+        change of the tool's azimuth: the tool point sits off the arm's plane by the
+        wrist's offset (d4, 133 mm on a UR5e), so its azimuth is the base angle plus
+        ``delta``, ``r sin(delta) = offset`` at radius ``r``; 5-9 degrees apart between HOME
+        and the pick zone, which every pick added to the wrist's turn before."""
+        p_ref, _ = self.fk(q_ref)
+        position = finite_vector("position", position, 3, RobotError)
+        r_ref, r = math.hypot(p_ref[0], p_ref[1]), math.hypot(position[0], position[1])
+        delta_ref = _wrap(math.atan2(p_ref[1], p_ref[0]) - q_ref[0])
+        offset = r_ref * math.sin(delta_ref)
+        if r <= abs(offset):  # (no tool-down pose reaches inside the offset's circle)
+            return _wrap(math.atan2(position[1], position[0]) - math.atan2(p_ref[1], p_ref[0]))
+        delta = math.asin(offset / r)
+        if math.cos(delta_ref) < 0:  # the same branch: the arm reaching over its base
+            delta = math.pi - delta
+        return _wrap(math.atan2(position[1], position[0]) - delta - q_ref[0])
+
     def seed_towards(self, position: np.ndarray, yaw: float, q_ref: np.ndarray) -> np.ndarray:
-        """A seed (6,) rad for a tool-down target: ``q_ref`` with the base turned by the
-        target's change of azimuth and the wrist by what is left of the change of yaw,
+        """A seed (6,) rad for a tool-down target: ``q_ref`` with the base turned as
+        :meth:`base_turn` says and the wrist by what is left of the change of yaw,
         wrapped to (-pi, pi] (the wrist turns the least); arm shape kept."""
-        p_ref, R_ref = self.fk(q_ref)
-        d_az = _wrap(np.arctan2(position[1], position[0]) - np.arctan2(p_ref[1], p_ref[0]))
+        _, R_ref = self.fk(q_ref)
+        yaw = finite("yaw", yaw, RobotError)
+        turn = self.base_turn(q_ref, position)
         d_yaw = _wrap(yaw - tool_yaw(R_ref))
         q = np.array(q_ref, dtype=np.float64)
-        q[0] += d_az
-        q[5] += d_az - d_yaw  # tool down: yaw = q1 - q6 + const
+        q[0] += turn
+        q[5] += turn - d_yaw  # tool down: yaw = q1 - q6 + const
         lo, hi = self.model.jnt_range[:, 0], self.model.jnt_range[:, 1]
         for i in (0, 5):
             if q[i] > hi[i]:
@@ -172,6 +196,11 @@ class ArmIK:
         position = finite_vector("position", position, 3, RobotError)
         yaw = finite("yaw", yaw, RobotError)
         seed = finite_vector("seed", seed, 6, RobotError)
+        lo, hi = self.model.jnt_range[:, 0], self.model.jnt_range[:, 1]
+        if ((seed < lo - 1e-9) | (seed > hi + 1e-9)).any():  # (the QP then has no solution)
+            i = int(np.argmax((seed < lo - 1e-9) | (seed > hi + 1e-9)))
+            raise RobotError(f"argument 'seed': joint {JOINT_NAMES[i]} at {seed[i]:.4f} rad is "
+                             f"outside its range [{lo[i]:.4f}, {hi[i]:.4f}] rad")
         t0 = time.perf_counter()
         reach = np.linalg.norm(position[:2] - layout.ARM_BASE[:2])
         if reach > 0.95:
@@ -216,4 +245,21 @@ class ArmIK:
             err = self.task.compute_error(cfg)
             it += 1
         self.stats.append((time.perf_counter() - t0, it))
+        inside = self._cup_inside(cfg.q)
+        if inside is not None:  # (the cup is no link the QP keeps clear: it grasps on the belt)
+            raise IKError(f"IK for {what} at {np.round(position, 4).tolist()} m: the cup would "
+                          f"be {1000 * inside[1]:.1f} mm inside the {inside[0]}")
         return cfg.q.copy()
+
+    def _cup_inside(self, q: np.ndarray) -> tuple[str, float] | None:
+        """(obstacle, depth m) where the cup at ``q`` sinks more than ``_INSIDE`` into the
+        furniture (table, belt, conveyor, rails, bin walls), or None."""
+        m, d = self.model, self.data
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        fromto = np.zeros(6)
+        for b in self._obstacle_ids:
+            dist = mujoco.mj_geomDistance(m, d, self._cup_id, b, 0.01, fromto)
+            if dist < -_INSIDE:
+                return m.geom(b).name.removeprefix(_PREFIX), -dist
+        return None

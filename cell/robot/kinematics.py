@@ -44,6 +44,8 @@ class ArmKinematics:
         self._frames: dict[str, int] = {}
 
     def _frame(self, name: str) -> int:
+        if not isinstance(name, str):
+            raise RobotError(f"argument 'frame': expected a frame name (tcp, flange), got {name!r}")
         if name not in self._frames:
             if not self.model.existFrame(name):
                 valid = "tcp, flange"

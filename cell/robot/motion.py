@@ -15,7 +15,8 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
-from cell.errors import MotionError
+from cell.errors import MotionError, RobotError
+from cell.robot._checks import finite, finite_vector
 from cell.robot.kinematics import ArmKinematics
 from cell.robot.settings import RobotSettings
 from cell.robot.trajectory import Segment, plan_segment
@@ -39,6 +40,7 @@ class ArmDriver:
         self.amax = np.deg2rad(self.settings.max_joint_accel)
         self.dt = float(model.opt.timestep)
         names = [prefix + n for n in JOINT_NAMES]
+        self._joints = np.array([model.joint(n).id for n in names])
         self._qadr = np.array([model.joint(n).qposadr[0] for n in names])
         self._dadr = np.array([model.joint(n).dofadr[0] for n in names])
         self._pos = np.array([model.actuator(n).id for n in names])
@@ -58,7 +60,12 @@ class ArmDriver:
 
     def command(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> None:
         """Send one servo set-point: position (rad), velocity (rad/s), acceleration
-        (rad/s^2, turned into feed-forward torque)."""
+        (rad/s^2, turned into feed-forward torque); six finite numbers each."""
+        self._send(*(finite_vector(name, v, 6, RobotError)
+                     for name, v in (("q", q), ("qd", qd), ("qdd", qdd))))
+
+    def _send(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> None:
+        """:meth:`command` of checked set-points (the segments' own: one per physics step)."""
         ctrl = self.data.ctrl
         ctrl[self._pos] = q
         ctrl[self._vel] = qd
@@ -86,8 +93,9 @@ class ArmDriver:
         looser one and let the servos finish converging during the next motion).
 
         Raises ``MotionError`` naming ``what`` if they do not settle in
-        ``settle_timeout`` (blocked, or a servo saturated)."""
-        seg = self.plan(q_goal)
+        ``settle_timeout`` (blocked, or a servo saturated); ``RobotError`` for a goal
+        that is not six finite numbers within the joint ranges."""
+        seg = self.plan(self._goal(q_goal))
         self._follow(seg, None)
         self.settle(what=what, tolerance=tolerance)
         return seg
@@ -96,23 +104,36 @@ class ArmDriver:
         """:meth:`move` to ``q_goal`` (rad), asking ``stop()`` after every physics step (a
         guarded move: a touch sensor, say): True when the arm settled at the goal; False
         when ``stop()`` said so first, the arm then commanded to hold where its joints are.
-        Raises ``MotionError`` as :meth:`move` does."""
-        if self._follow(self.plan(q_goal), stop) and self.settle(what=what, stop=stop):
+        Raises ``MotionError`` and ``RobotError`` as :meth:`move` does."""
+        if self._follow(self.plan(self._goal(q_goal)), stop) and self.settle(what=what, stop=stop):
             return True
         self.command(self.joint_positions(), np.zeros(6), np.zeros(6))
         return False
+
+    def _goal(self, q_goal: np.ndarray) -> np.ndarray:
+        """``q_goal`` checked: six finite numbers (rad), each within its joint's range (a
+        goal beyond it drove the joint to its stop and failed a second later as 'blocked
+        or saturated')."""
+        q = finite_vector("q_goal", q_goal, 6, RobotError)
+        lo, hi = self.model.jnt_range[self._joints, 0], self.model.jnt_range[self._joints, 1]
+        out = (q < lo - 1e-9) | (q > hi + 1e-9)
+        if out.any():
+            i = int(np.argmax(out))
+            raise RobotError(f"argument 'q_goal': joint {JOINT_NAMES[i]} at {q[i]:.4f} rad is "
+                             f"outside its range [{lo[i]:.4f}, {hi[i]:.4f}] rad")
+        return q
 
     def _follow(self, seg: Segment, stop: Callable[[], bool] | None) -> bool:
         """Send ``seg``'s set-points, one per physics step (each step's is the reference at
         its start), then its end; False as soon as ``stop()`` is True."""
         for k in range(int(np.ceil(seg.duration / self.dt - 1e-9))):
-            self.command(*seg.sample(k * self.dt))
+            self._send(*seg.sample(k * self.dt))
             self._step(1)
             err = np.abs(self.joint_positions() - seg.sample((k + 1) * self.dt).q).max()
             self.max_tracking_error = max(self.max_tracking_error, float(err))
             if stop is not None and stop():
                 return False
-        self.command(seg.q1, np.zeros(6), np.zeros(6))
+        self._send(seg.q1, np.zeros(6), np.zeros(6))
         return True
 
     def settle(self, *, what: str = "goal", tolerance: float | None = None,
@@ -135,5 +156,8 @@ class ArmDriver:
             f"{s.settle_timeout} s (joint error {err:.4f} rad): blocked or saturated")
 
     def wait(self, seconds: float) -> None:
-        """Hold the last command for ``seconds`` of simulated time."""
-        self._step(max(0, int(round(seconds / self.dt))))
+        """Hold the last command for ``seconds`` (finite, >= 0) of simulated time."""
+        seconds = finite("seconds", seconds, RobotError)
+        if seconds < 0:
+            raise RobotError(f"argument 'seconds': expected a time >= 0, got {seconds!r}")
+        self._step(int(round(seconds / self.dt)))

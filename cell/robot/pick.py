@@ -100,6 +100,10 @@ class PartTarget:
     seen_at: float = 0.0
 
     def __post_init__(self) -> None:
+        for name in ("kind", "bin"):
+            if not isinstance(getattr(self, name), str):
+                raise RobotError(f"PartTarget: argument {name!r}: expected a name (text), got "
+                                 f"{getattr(self, name)!r}")
         for name in ("x", "y", "yaw", "surface_z", "vx", "seen_at"):
             try:
                 finite(name, getattr(self, name), RobotError)
@@ -152,10 +156,8 @@ class PickPlace:
         """IK seeded from the last solution for ``key`` (else ``base``, else ``q_ref``)
         turned towards the target. ``yaw`` None: the yaw ``q_ref`` reaches with the wrist
         still, and the seed's wrist on ``q_ref``'s turn."""
-        if yaw is None:
-            p_ref, R_ref = self.ik.fk(q_ref)
-            d_az = np.arctan2(position[1], position[0]) - np.arctan2(p_ref[1], p_ref[0])
-            yaw = tool_yaw(R_ref) + d_az
+        if yaw is None:  # tool down: yaw = q1 - q6 + const, so the base's turn alone
+            yaw = tool_yaw(self.ik.fk(q_ref)[1]) + self.ik.base_turn(q_ref, position)
         start = self._seeds.get(key, q_ref if base is None else base)
         seed = self.ik.seed_towards(position, yaw, start)
         turns = np.round((q_ref[5] - seed[5]) / (2 * np.pi))
@@ -192,9 +194,8 @@ class PickPlace:
         grasp = np.array([part.x + c * dx - s * dy, part.y + s * dx + c * dy,
                           part.surface_z + top + _HOVER])
         start = self.driver.q_cmd.copy()
-        p_start, R_start = self.ik.fk(start)
-        d_az = np.arctan2(grasp[1], grasp[0]) - np.arctan2(p_start[1], p_start[0])
-        yaw = choose_tool_yaw(part.yaw, KINDS[part.kind].symmetry, tool_yaw(R_start) + d_az)
+        still = tool_yaw(self.ik.fk(start)[1]) + self.ik.base_turn(start, grasp)  # wrist still
+        yaw = choose_tool_yaw(part.yaw, KINDS[part.kind].symmetry, still)
         above = grasp + [0.0, 0.0, self.settings.approach_height]
         q_above = self._solve("above", above, yaw, start, f"approach above {name}")
         q_grasp = self.ik.solve(grasp, yaw, q_above, what=f"grasp of {name}")

@@ -50,6 +50,20 @@ def test_unreachable_target_is_an_ik_error_naming_it(ik):
         ik.solve(p, 0.0, ik.seed_towards(p, 0.0, HOME))
 
 
+@pytest.mark.parametrize(("target", "obstacle"), [
+    ((0.35, -0.25, -0.01), "table"),  # 10 mm into the table (its top at z = 0)
+    ((0.02, 0.48, 0.06), "belt"),  # 20 mm into the belt (its top at z = 0.08)
+])
+def test_a_target_that_sinks_the_cup_into_the_furniture_is_no_solution(ik, target, obstacle):
+    """The QP keeps the links clear, not the cup (it grasps on the belt): such targets came
+    back solved, ``collides`` saying 'arm/cup vs table' of the answer."""
+    p = np.array(target)
+    with pytest.raises(IKError, match=f"the cup would be [0-9.]+ mm inside the {obstacle}"):
+        ik.solve(p, 0.3, ik.seed_towards(p, 0.3, HOME), what="test target")
+    resting = p + [0.0, 0.0, 0.03 if obstacle == "table" else 0.02]  # the cup on the surface
+    assert ik.collides(ik.solve(resting, 0.3, ik.seed_towards(resting, 0.3, HOME)), clearance=-0.001) is None
+
+
 @pytest.mark.parametrize(("part_yaw", "symmetry", "tool", "natural", "expected"), [
     (0.3, 0, 8, 2.0, 2.0),  # washer: any yaw, so the wrist stays
     (0.3, 6, 1, 2.0, 0.3 + 2 * np.pi / 6 * 2),  # hex nut, one-lip cup: nearest of six
@@ -71,6 +85,8 @@ def test_tool_yaw_is_the_nearest_symmetric_equivalent(part_yaw, symmetry, tool, 
     ([0.0, 0.45, 0.3], 0.0, np.full(6, np.nan), "seed"),
     ([0.0, 0.45], 0.0, HOME, "position"),
     ([0.0, 0.45, 0.3], 0.0, HOME[:5], "seed"),
+    ([0.0, 0.45, 0.3], 0.0, HOME + [0, 0, 0, 0, 0, 4 * np.pi], "seed"),  # (outside its range:
+    ([0.0, 0.45, 0.3], 0.0, HOME + [0, 0, 3.5, 0, 0, 0], "seed"),  # "the QP has no solution")
 ])
 def test_a_target_that_is_not_numbers_is_a_robot_error_naming_it(ik, position, yaw, seed, culprit):
     # (a NaN target once came back as the seed, "solved"; a NaN seed as all-NaN joints).
@@ -108,3 +124,17 @@ def test_fk_and_the_collision_check_refuse_joints_that_are_not_six_numbers(ik):
             ik.fk(bad)
         with pytest.raises(RobotError, match="argument 'q'"):
             ik.collides(bad)
+
+
+def test_the_seed_and_clearance_helpers_refuse_what_is_no_number(ik):
+    """seed_towards returned NaN seeds for a NaN target, an IndexError for a short one;
+    collides(clearance=nan) answered None, read as clear."""
+    from cell.errors import RobotError
+
+    p = layout.PICK_ZONE + [0.0, 0.0, 0.05]
+    for position, yaw, culprit in (([np.nan, 0.45, 0.1], 0.0, "position"),
+                                   ([0.1], 0.0, "position"), (p, np.nan, "yaw")):
+        with pytest.raises(RobotError, match=f"argument '{culprit}'"):
+            ik.seed_towards(np.array(position), yaw, HOME)
+    with pytest.raises(RobotError, match="argument 'clearance'"):
+        ik.collides(HOME, clearance=np.nan)

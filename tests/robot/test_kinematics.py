@@ -67,3 +67,9 @@ def test_joint_vectors_that_are_not_six_finite_numbers_are_refused(models):
             kin.feedforward_torque(bad, ok, ok)
     with pytest.raises(RobotError, match="argument 'qdd'"):
         kin.feedforward_torque(ok, ok, np.full(6, np.inf))
+
+
+def test_a_frame_that_is_no_name_is_a_robot_error():
+    """pose(q, frame=5) raised pinocchio's Boost.Python error."""
+    with pytest.raises(RobotError, match="argument 'frame': expected a frame name"):
+        ArmKinematics().pose(np.zeros(6), 5)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from cell.catalogue import KINDS
 from cell.errors import IKError, MotionError, RobotError
 from cell.robot.pick import PartTarget, PickPlace
 from cell.scenario import scenario_from_dict
@@ -96,3 +97,46 @@ def test_a_part_target_holds_finite_numbers(field):
     for bad in (np.nan, np.inf, "0.5", True):
         with pytest.raises(RobotError, match=f"argument '{field}'"):
             dataclasses.replace(good, **{field: bad})
+
+
+def test_the_wrist_does_not_wind_up_over_many_picks():
+    """Plans of 60 picks in a row, each starting where the last one ended: the wrist turns
+    at most half the cup's 45-degree symmetry per move and HOME's wrist stays put. (Each
+    pick took the tool's azimuth for the base's turn, 5-9 degrees apart for the UR's wrist
+    offset, so HOME's wrist stepped 45 degrees every 7-10 picks, reached its 2 pi limit by
+    pick 79 and then turned 346 degrees in one move.)"""
+    scenario = scenario_from_dict({"parts": {"count": 1}, "conveyor": {"speed": 0.0}})
+    with World.build(scenario) as world:
+        skill = PickPlace(world.model, world.data, world.step, scenario.robot)
+        rng = np.random.default_rng(0)
+        kinds, bins = sorted(KINDS), sorted(layout.BINS)
+        for _ in range(60):
+            target = PartTarget(kinds[rng.integers(len(kinds))],
+                                layout.PICK_ZONE[0] + rng.uniform(-0.04, 0.04),
+                                layout.CONVEYOR_Y + rng.uniform(-0.05, 0.05),
+                                rng.uniform(-np.pi, np.pi), bins[rng.integers(len(bins))])
+            plan = skill.plan(target)
+            moves = [plan["start"], plan["above"], plan["bin"], plan["home"]]
+            for a, b in zip(moves, moves[1:], strict=False):
+                assert abs(b[5] - a[5]) <= np.pi / 8 + 0.02
+            assert plan["home"][5] == pytest.approx(HOME[5])
+            skill.driver.q_cmd = plan["home"].copy()
+
+
+def test_the_driver_refuses_what_would_reach_the_servos_as_nonsense(cell):
+    """A NaN set-point went into the servo commands (MuJoCo then warned of instability); a
+    goal beyond a joint's range drove it to the stop and failed a second later as 'blocked
+    or saturated'; wait(nan) raised ValueError; a bin given as a list a TypeError."""
+    world, skill, _ = cell
+    driver = skill.driver
+    before = world.data.ctrl.copy()
+    with pytest.raises(RobotError, match="argument 'q'"):
+        driver.command(np.r_[np.nan, HOME[1:]], np.zeros(6), np.zeros(6))
+    np.testing.assert_array_equal(world.data.ctrl, before)
+    with pytest.raises(RobotError, match="argument 'q_goal': joint elbow at 3.5000 rad is outside"):
+        driver.move(np.r_[HOME[:2], 3.5, HOME[3:]])
+    for seconds in (np.nan, np.inf, -1.0):
+        with pytest.raises(RobotError, match="argument 'seconds'"):
+            driver.wait(seconds)
+    with pytest.raises(RobotError, match="argument 'bin': expected a name"):
+        PartTarget("washer", 0.0, 0.45, 0.0, ["metal"])

@@ -10,7 +10,9 @@ module of :mod:`cell.vision.steps`, in the order they run:
    at a fraction of its own contrast, shadows dropped;
 3. **kind** (:mod:`~cell.vision.steps.footprint`, :mod:`~cell.vision.steps.kind`): the
    outline mapped onto the table plane, free of perspective, and scored per kind;
-4. **touching parts** (:mod:`~cell.vision.steps.split`): a blob that fits no kind is cut;
+4. **touching parts** (:mod:`~cell.vision.steps.split`): a blob that fits no kind, fits
+   one poorly or holds more than its kind's area is cut (one of no kind too faint against
+   the belt, ``vision.faint_contrast``, is dropped uncut);
 5. **material** (:mod:`~cell.vision.steps.material`): grain and white-balanced albedo;
 6. **pose** (:mod:`~cell.vision.steps.pose`): position and yaw on the table plane.
 

@@ -97,7 +97,8 @@ class VisionSettings:
         doc="belt reflectance per channel (0.01..1), the white-balance reference",
     )
     min_area_mm2: float = setting(
-        40.0, lo=0.0, hi=1e4, doc="smallest blob kept, as a table-plane area (mm^2)"
+        40.0, lo=0.0, hi=1e4,
+        doc="smallest blob kept, as a table-plane area (mm^2; a kept group's regions from a third)"
     )
     max_area_mm2: float = setting(
         2000.0, lo=1.0, hi=1e5, doc="largest blob that may be one or two parts (mm^2)"

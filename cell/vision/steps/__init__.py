@@ -10,7 +10,7 @@ them (see :mod:`cell.vision.detector`):
 6. :mod:`~cell.vision.steps.pose`: position and yaw on the table plane.
 
 Each step is plain numpy and OpenCV (the pose step also scipy); data passes between them
-as frozen dataclasses.
+as frozen dataclasses (and the material step's ``MaterialLabel``, a named tuple).
 """
 
 from __future__ import annotations

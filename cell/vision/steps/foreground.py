@@ -9,9 +9,9 @@ least 72 mm wide on the table (1/16 at 1280x960, 1/13 at 1000x750): else a large
 fills half its window and becomes belt, its middle lost. The
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
-thresholded at the frame's own noise level (median + ``noise_k`` x MAD of the
-difference, at least ``belt_floor``); the outline step then re-thresholds each blob in
-its own box. A noisy frame (a difference MAD over 2 grey levels) is smoothed by a 3x3
+thresholded at the frame's own noise level (median + ``noise_k`` sigma of the
+difference, sigma = 1.4826 x its MAD, at least ``belt_floor``); the outline step then
+re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is smoothed by a 3x3
 Gaussian first, and thresholded with hysteresis: its threshold stands high over a faint
 part's contrast, so a pixel above ``belt_low`` times the threshold is foreground too
 where it connects to one above it, and a faint part that is clear somewhere is one group

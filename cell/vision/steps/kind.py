@@ -41,7 +41,8 @@ _SIGMA_HOLE = 0.09  # tolerance on the hole fraction
 # bracket's inner corner makes the pair's outline bracket-like, but adds the nut's hole)
 _SIGMA_NO_HOLE = 0.035
 _SIGMA_SOLIDITY = 0.07
-# six-fold facet strength of the round kinds (hex nut renders 0.65-0.73, circles < 0.1),
+# six-fold facet strength of the round kinds (hex nuts render 0.6-0.9, median 0.8; circles
+# mostly under 0.15),
 # scored one-sided: sharper flats still make a hex nut, rounder outlines a washer
 _FACETS6 = {"hex_nut": 0.65, "washer": 0.05, "disc": 0.05}
 _SIGMA_FACETS = 0.12

@@ -11,8 +11,8 @@ from brass, so the classifier looks at two cues that do not depend on hue:
   the grain free of the sensor noise, with a standard error, so a dim, noisy frame does
   not fake grain (after the colour-space noise model of Healey & Kondepudy, *Radiometric
   CCD camera calibration and noise estimation*, 1994). Scales are robust (MAD, medians),
-  and only the pixels both flatter and brighter than the part's medians count (about a
-  quarter of them): shading, a bolt's curved flank or the shadow terminator leave a
+  and only the pixels both flatter and brighter than the part's medians count (a third to
+  a half of them, the two being correlated): shading, a bolt's curved flank or the shadow terminator leave a
   residual too, but show in the gradient of the smoothed grey.
 * **Albedo**. The part's mean colour divided by the belt's colour next to it, times the
   belt's known reflectance (a white balance against a reference surface of known colour),
@@ -110,7 +110,7 @@ class MaterialFeatures:
     ``grain_visibility`` how many standard errors a metal's grain (5 % of the brightness)
     would stand above the noise here: where it is small (dim, noisy, tiny), the absence of
     grain says nothing; ``grain_pixels`` how many of the pixels the grain was measured on
-    (the flatter, lit ones: about a quarter of an evenly lit surface).
+    (the flatter, lit ones: about half of an evenly lit surface).
     """
 
     mean_rgb: np.ndarray

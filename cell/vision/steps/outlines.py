@@ -2,10 +2,12 @@
 
 The foreground's outer contours (``cv2.findContours``) give the blobs. With the belt
 segmentation each blob is then re-thresholded in its own box at a fraction
-(``edge_level``) of its own contrast's lower quartile, so a bright part's outline does
-not swell by the blur around it and a faint one's does not shrink; pixels that are the belt in
-shadow (darker in every channel by one factor: Cucchiara et al., *Detecting moving
-objects, ghosts and shadows in video streams*, IEEE PAMI 2003) are dropped. A blob much
+(``edge_level``) of its own contrast's lower quartile, never below the frame's own
+threshold, so a bright part's outline does not swell by the blur around it (a faint
+part's outline is the threshold's: under dim and raking light, most are); pixels that are
+the belt in other light (darker or brighter in every channel by one factor: a shadow, a
+spot's pool of light; Cucchiara et al., *Detecting moving objects, ghosts and shadows in
+video streams*, IEEE PAMI 2003) are dropped. A blob much
 longer than any part holds a rail or the table's edge: its long straight runs are taken
 out (openings by a line), so a part that touches it is kept.
 
@@ -189,7 +191,8 @@ def _groups(mask: np.ndarray, max_px: float) -> list[np.ndarray]:
 
 def find_outlines(fg: Foreground, settings: VisionSettings, *, min_px: float,
                   max_px: float) -> list[Outline]:
-    """The blobs of a frame's foreground: areas of at least ``min_px`` px^2, boxes no
+    """The blobs of a frame's foreground: groups whose outline (dilated by 2 px) covers at
+    least ``min_px`` px^2, the regions in them from a third of that, boxes no
     longer than ``max_px`` px (see the module docstring)."""
     h, w = fg.mask.shape
     out: list[Outline] = []

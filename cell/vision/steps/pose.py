@@ -19,15 +19,16 @@ The yaw is measured modulo the kind's rotational symmetry n
   point's residual its signed distance beyond the polygon's nearest flat line
   (``max_k (n_k . q - a_k)``), fitted by robust least squares (``scipy.optimize.least_squares``,
   Huber loss at 0.2 mm: the outline's noise; farther points, a bite or a bump, count
-  linearly; Huber, *Robust Statistics*, 1981). A chord spans 5 points of one flat, the fit
+  linearly; Huber, *Robust Statistics*, 1981). A chord spans 6 points (5 steps) of one flat, the fit
   all of them: on outlines jittered by 0.1 mm the median error falls from 0.17 to 0.15 deg
   (hex nut; square 0.14 to 0.10), and a bite out of one flat (a ramp 0.8 mm deep, the
   neighbour's notch) turns it by 0.02 deg, not 0.46. A flat moved parallel as a whole (a
   dilated outline, a shadow's remnant) does not pull the angle, its offset being free; a
   flat broken into two offsets does (0.4 mm over half a flat: 0.66 deg, the chords 0.17).
   On the bench's rendered frames the fit brings the presets' yaw p95 down by a seventh on
-  average (``cell bench vision``, four sets: 1.17 to 1.01 deg, three of 32 presets rising
-  by 0.06 deg at most; four sets used for no tuning: 1.14 to 0.99, five rising, one by 0.31).
+  average (``cell bench vision``, four sets: 1.16 to 1.00 deg, four of 32 presets rising
+  by 0.13 deg at most; four sets used for no tuning: 1.14 to 0.99, four rising by 0.06 at
+  most).
   It costs about 0.9 ms per nut. The outline's points marked ``cut`` lie on a straight cut
   that separated the part from one it touched (or two, for the middle part of a row), not
   on an edge: those points and ``_CUT_GUARD`` points either side (the contact's notch) are
@@ -51,7 +52,9 @@ The position is the footprint's area centroid, except a bolt's: the area centroi
 with its hex head's roll (10 or 11.5 mm wide), its ends do not, so the reference point is on
 the rectangle's long axis, 1.4 mm from the middle of the outline's two extremes along it
 towards the head (the end whose 4 mm strip reaches wider off the axis): the body origin of
-``cell.sim.parts`` (ends at -20.6 and +23.4 mm).
+``cell.sim.parts``, whose modelled ends lie at -20.5 and +23.5 mm (1.5 mm from their
+middle; the rendered outline's ends put it 1.4 mm from theirs: over 287 bolts the bias
+along the axis is a median -0.009 mm).
 """
 
 from __future__ import annotations

@@ -1,7 +1,10 @@
-"""Step 4, touching parts: cut a blob that fits no kind into pieces that each fit one.
+"""Step 4, touching parts: cut a blob that fits no kind (or fits one poorly, or holds more
+than its kind's area) into pieces that each fit one.
 
-Three kinds of cut are tried, in this order, and the one whose pieces fit their kinds
-best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
+Three kinds of cut are tried, in this order; the first whose pieces fit their kinds well
+(a mean score under 6, :mod:`cell.vision.steps.kind`) is taken, else the best of those
+tried (the cores are skipped once a straight cut scored under 6.3, the colours once any
+cut scored under 9):
 
 1. **Straight cuts between convexity defects** (``cv2.convexHull``,
    ``cv2.convexityDefects``): two convex parts that touch leave a notch on each side of
@@ -18,13 +21,14 @@ best (lowest mean score, :mod:`cell.vision.steps.kind`) wins:
    regions after a 3x3 opening, those at least a quarter of its largest, seed a piece
    (a streak of light can break a part's face in two). Tried last, on the blob itself.
 
-A piece that fits no kind and is large enough to hold two parts is cut again (chains of
-up to three parts); the whole search tries at most 40 cuts per blob and keeps the best.
-A piece of the best cut that fits its kind but holds another part's area (a nut nested
-in an L bracket's inner corner) gets a few cuts of its own, and a region of the blob that
+A piece that fits no kind and is large enough to hold two parts is cut once more (one
+cut can so give four pieces); the search tries at most 40 cuts per blob. A piece of the
+best cut that fits its kind but holds another part's area (a nut nested in an L
+bracket's inner corner) gets up to 4 cuts of its own, and a region of the blob that
 no piece covers (a part touching the others at one corner only falls away at the cut) is
-a piece when it fits a kind. The detector sends a blob here also when it fits a kind but
-holds another part's area (:func:`~cell.vision.steps.kind.holds_another`).
+a piece when it fits a kind. The detector sends a blob here also when it fits a kind
+poorly (a score of 9 or more: then only a cut that fits clearly better is taken) or holds
+another part's area (:func:`~cell.vision.steps.kind.holds_another`).
 """
 
 from __future__ import annotations
@@ -49,8 +53,8 @@ _GOOD = 6.0  # mean piece score at which a cut is taken without trying more
 _ACCEPT = 9.0  # a piece (or a cut, on average) scoring worse fits no kind
 _MIN_PAIR_MM2 = 200.0  # two parts cover at least this (mm^2): a smaller piece is not cut
 _MIN_PART_MM2 = 60.0  # the smallest part covers about 100 mm^2 (a square nut's ring)
-_BUDGET = 40  # cuts tried per blob, all depths together
-_MAX_DEPTH = 1  # pieces of pieces: chains of up to three parts
+_BUDGET = 40  # cuts tried per blob, both depths together (a nested piece's _FEW aside)
+_MAX_DEPTH = 1  # a piece that fits no kind is cut once more: a cut gives up to four pieces
 _FEW = 4  # cuts tried on a piece that fits its kind but may hold another (_nested)
 _MIN_WIDTH = 0.0095  # m: a blob narrower than this holds no part (the narrowest is 11 mm)
 _BETTER, _POOR = 2.0, 13.0  # a blob fitting one kind poorly is cut if the cut fits better

@@ -218,6 +218,7 @@ class SortLoop:
         ``sort.arrival_timeout`` (stopped), or when a part let go has not ridden on past
         the barrier within that time (jammed there). Each early end says why (``ended``)."""
         conveyor = self.world.conveyor
+        conveyor.proceed()  # (the belt stays stopped after a stop at the barrier until then)
         end = self.world.time + self.settings.arrival_timeout
         while conveyor.release > 0.0:  # a part let go rides on past the barrier first
             if self.world.time >= end:
@@ -296,6 +297,8 @@ class SortLoop:
                 cap, todo, second = self._look_for_parts()
                 if not todo:
                     break
+                if self.world.barrier_blocked:  # the belt runs on once the cup lifts what
+                    self.world.conveyor.proceed()  # blocks the barrier, till the next part
                 self._pick(todo[0], cap, second_look=second)
             if self.world.barrier_blocked and not self._belt_moving():  # left at the barrier:
                 self._let_go += 1  # it cannot be picked

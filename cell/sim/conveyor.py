@@ -2,9 +2,15 @@
 
 The belt is one box whose ``surfacevel`` moves whatever rests on it (NOTES.md: level,
 no yaw drift). A rangefinder across the belt just above its surface is the light
-barrier at the pick zone; in ``index`` mode the belt stops while the barrier is broken
-and runs while it is clear, as an indexing conveyor's PLC would do. The controller reads
-only that sensor, never the simulator's part positions.
+barrier at the pick zone.
+
+In ``index`` mode the belt stops when the barrier breaks and stays stopped (latched) until
+the cell's controller gives the go-ahead (:meth:`Conveyor.proceed`) and the barrier is
+clear, as an indexing conveyor's PLC does with its robot: a part slides on when the belt
+stops (``v^2 / (2 mu g)``: 14 mm at 0.5 m/s, the belt's friction 0.9) and a bolt lying
+across the belt rolls, so a short part can clear the barrier on its own; the belt used to
+run again then and carried it out of reach. The controller reads only that sensor,
+never the simulator's part positions.
 """
 
 from __future__ import annotations
@@ -122,11 +128,18 @@ class Conveyor:
     travel: float = 0.0
     running: bool = True
     release: float = 0.0  # m: run on past a broken barrier until it has been clear this far
+    latched: bool = False  # index mode: stopped by the barrier, waiting for proceed()
+
+    def proceed(self) -> None:
+        """The controller's go-ahead after a stop at the barrier: the belt runs again as
+        soon as the barrier is clear (at once if it is)."""
+        self.latched = False
 
     def release_part(self, distance: float = 0.03) -> None:
         """Run on although the barrier is broken (the PLC's release button), until it has
         been clear for ``distance`` metres of belt: a part the cell gives up on moves on."""
         self.release = float(distance)
+        self.latched = False
 
     def __post_init__(self) -> None:
         self._belt = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "belt")
@@ -148,8 +161,11 @@ class Conveyor:
 
         ``held``: the belt stands still whatever the barrier says (a stop fault, or a
         controller's hold)."""
-        run = not held and (self.mode == "continuous" or not self.barrier_blocked(data)
-                            or self.release > 0.0)
+        blocked = self.mode == "index" and self.barrier_blocked(data)
+        if blocked and self.release <= 0.0:
+            self.latched = True
+        run = not held and (self.mode == "continuous" or self.release > 0.0
+                            or not (blocked or self.latched))
         if run != self.running:
             self._apply(self.speed if run else 0.0)
             self.running = run

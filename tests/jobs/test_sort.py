@@ -154,6 +154,15 @@ def test_index_mode_picks_only_while_the_belt_stands(calibration):
     assert [p["result"] for p in report["picks"]] == ["placed"] * 3
 
 
+def test_a_fast_belt_keeps_the_parts_that_roll_past_the_barrier_in_reach(calibration):
+    # at 0.5 m/s a bolt lying across the belt rolls on when the belt stops and clears the
+    # barrier by itself: the belt ran again and 3 of these 6 bolts were missed, never picked
+    report = _run("sort", calibration, "conveyor.speed=0.5", 'parts.kinds=["bolt"]',
+                  "parts.count=6", "seed=0")
+    _check_accounting(report, 6)
+    assert report["accounting"]["binned_correct"] == 6
+
+
 class _UnsureFirst:
     """Our detector, but unsure of every material (confidence 0.55, under the job's 0.6)
     except during a second look: the case the second look is for, made on purpose (the

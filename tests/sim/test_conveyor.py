@@ -37,6 +37,24 @@ def test_index_mode_stops_at_the_light_barrier(world_factory):
     assert world.part_pose(2)[0][0] < pos[0] - 0.05  # the next part waits upstream
 
 
+def test_the_belt_waits_for_the_go_ahead_though_a_part_rolls_past_the_barrier(world_factory):
+    """At 0.5 m/s a bolt lying across the belt rolls on when the belt stops and clears the
+    barrier by itself: the belt ran again and carried it away (3 of 8 seeds). It stays
+    stopped now, the part within the pick window, until ``proceed``."""
+    world = world_factory(seed=25, parts={"count": 1, "kinds": ["bolt"]},
+                          conveyor={"speed": 0.5})
+    assert world.run_until_part_at_pick(timeout=20, settle=0.0)
+    world.step(750)  # 1.5 s
+    pos, _ = world.part_pose(1)
+    assert not world.barrier_blocked and not world.conveyor.running  # rolled past: held
+    assert layout.BARRIER_X + 0.01 < pos[0] < layout.PICK_ZONE[0] + 0.12
+    world.step(250)
+    assert np.allclose(world.part_pose(1)[0], pos, atol=1e-4)
+    world.conveyor.proceed()
+    world.step(250)
+    assert world.conveyor.running and world.part_pose(1)[0][0] > pos[0] + 0.1
+
+
 def test_continuous_mode_never_stops(world_factory):
     world = world_factory(parts={"count": 1, "kinds": ["disc"]},
                           conveyor={"speed": 0.2, "mode": "continuous"})

@@ -351,3 +351,11 @@ def test_an_ik_tolerance_finer_than_the_solver_reaches_is_refused():
 def test_overrides_given_as_one_string_are_refused_saying_so():
     with pytest.raises(ScenarioError, match=r"overrides: expected a list .* put it in a list"):
         scenario_from_dict({}, overrides="parts.count=4")
+
+
+def test_touching_parts_come_in_pairs_not_chains():
+    """faults.touching [2, 3]: part 3 was spawned 30 mm from part 2 (only pairs are made)."""
+    with pytest.raises(ScenarioError, match="'faults.touching' lists 2 and 3: part 3 would touch "
+                       "part 2, itself touching part 1"):
+        scenario_from_dict({"faults": {"touching": [2, 3]}})
+    assert scenario_from_dict({"faults": {"touching": [2, 4]}}).faults.touching == (2, 4)

@@ -106,6 +106,8 @@ def _sensor_variants(world, repeats: int) -> dict:
     new model's first frame: it draws the noise bank, and the distortion maps if any),
     with the settings used.
     """
+    import cv2
+
     from cell.sim.sensor import SensorModel
 
     rig = world.rig("overhead")
@@ -119,8 +121,13 @@ def _sensor_variants(world, repeats: int) -> dict:
                     "distortion": tuple(s.distortion), "bits": s.bits, **changes}
         model = SensorModel(K=world.camera_model("overhead").K, width=w, height=h, **settings)
         rng = np.random.default_rng(0)
-        first = _once_ms(lambda m=model, r=rng: m.apply(rgb, r, gain=gain))
-        out[name] = {"ms": _ms_after(lambda: rig.render_rgb(world.data),
+        px, py = model.padding()  # a distorting lens takes a larger ideal render
+
+        def grown(x: np.ndarray, px: int = px, py: int = py) -> np.ndarray:
+            return cv2.copyMakeBorder(x, py, py, px, px, cv2.BORDER_REPLICATE) if px else x
+
+        first = _once_ms(lambda m=model, r=rng: m.apply(grown(rgb), r, gain=gain))
+        out[name] = {"ms": _ms_after(lambda: grown(rig.render_rgb(world.data)),
                                      lambda x, m=model, r=rng: m.apply(x, r, gain=gain), repeats),
                      "first_frame_ms": first,
                      "settings": {**settings, "distortion": list(settings["distortion"])}}

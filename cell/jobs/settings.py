@@ -113,6 +113,12 @@ class FaultSettings:
             if len(getattr(self, key)) not in (0, 2):
                 raise ScenarioError(f"{where}: key 'faults.{key}' must be [start, duration] "
                                     f"in seconds, or empty")
+        chained = sorted(k for k in self.touching if k - 1 in self.touching)
+        if chained:  # (a pair is dropped together; a third part came 30 mm from the second)
+            k = chained[0]
+            raise ScenarioError(f"{where}: key 'faults.touching' lists {k - 1} and {k}: part {k} "
+                                f"would touch part {k - 1}, itself touching part {k - 2}; only "
+                                "pairs are made, so no two numbers may follow each other")
 
     @property
     def any(self) -> bool:

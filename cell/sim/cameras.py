@@ -124,8 +124,17 @@ class CameraRig:
         self.sensor = sensor
         self.part_of_geom = part_of_geom
         self._lut = part_lut(part_of_geom)
+        # a distorting lens sees beyond the pinhole view: the ideal render reaches that far
+        # (sensor.padding), with the same focal length, so the camera's field of view grows
+        self._model, self._id = model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        px, py = sensor.padding()
+        height, width = sensor.height + 2 * py, sensor.width + 2 * px
+        f = 0.5 * sensor.height / math.tan(math.radians(model.cam_fovy[self._id]) / 2)
+        self._fovy = math.degrees(2 * math.atan(0.5 * height / f)) if py else None
+        glob = model.vis.global_
+        glob.offwidth, glob.offheight = max(glob.offwidth, width), max(glob.offheight, height)
         try:
-            self._renderer = mujoco.Renderer(model, sensor.height, sensor.width)
+            self._renderer = mujoco.Renderer(model, height, width)
         except mujoco.FatalError as exc:
             if "OpenGL platform library has not been loaded" not in str(exc):
                 raise
@@ -142,15 +151,28 @@ class CameraRig:
     def close(self) -> None:
         self._renderer.close()
 
+    def _update(self, data: mujoco.MjData) -> None:
+        """The renderer's scene from ``data``, through the camera widened by the padding."""
+        if self._fovy is None:  # (no padding: the camera as it is)
+            self._renderer.update_scene(data, camera=self.name, scene_option=self._option)
+            return
+        fovy = self._model.cam_fovy[self._id]
+        self._model.cam_fovy[self._id] = self._fovy
+        try:
+            self._renderer.update_scene(data, camera=self.name, scene_option=self._option)
+        finally:
+            self._model.cam_fovy[self._id] = fovy
+
     def render_rgb(self, data: mujoco.MjData) -> np.ndarray:
-        """The ideal (pinhole, noise-free) RGB render, uint8 (H, W, 3)."""
-        self._renderer.update_scene(data, camera=self.name, scene_option=self._option)
+        """The ideal (pinhole, noise-free) RGB render, uint8 (H, W, 3), and with lens
+        distortion ``sensor.padding()`` larger on each side."""
+        self._update(data)
         return self._renderer.render()
 
     def render_depth(self, data: mujoco.MjData) -> np.ndarray:
         """Depth along the optical axis, float32 (H, W) metres, distorted like the image."""
         r = self._renderer
-        r.update_scene(data, camera=self.name, scene_option=self._option)
+        self._update(data)
         r.enable_depth_rendering()
         try:
             depth = r.render().astype(np.float32)
@@ -159,9 +181,10 @@ class CameraRig:
         return self.sensor.warp(depth, nearest=True)
 
     def render_seg_raw(self, data: mujoco.MjData) -> np.ndarray:
-        """MuJoCo's segmentation: int32 (H, W, 2), (object id, object type) per pixel."""
+        """MuJoCo's segmentation: int32 (H, W, 2), (object id, object type) per pixel, of
+        the ideal render (``sensor.padding()`` larger on each side with lens distortion)."""
         r = self._renderer
-        r.update_scene(data, camera=self.name, scene_option=self._option)
+        self._update(data)
         r.enable_segmentation_rendering()
         try:
             return r.render()

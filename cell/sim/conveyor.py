@@ -4,9 +4,11 @@ The belt is one box whose ``surfacevel`` moves whatever rests on it (NOTES.md: l
 no yaw drift). A rangefinder across the belt just above its surface is the light
 barrier at the pick zone.
 
-In ``index`` mode the belt stops when the barrier breaks and stays stopped (latched) until
-the cell's controller gives the go-ahead (:meth:`Conveyor.proceed`) and the barrier is
-clear, as an indexing conveyor's PLC does with its robot: a part slides on when the belt
+In ``index`` mode the belt stops when a part arriving breaks the barrier (after at least
+5 mm of belt run with it clear: not the part the cup lifts, passing the beam again) and
+stays stopped (latched) until the cell's controller gives the go-ahead
+(:meth:`Conveyor.proceed`) and the barrier is clear, as an indexing conveyor's PLC does
+with its robot; any break stops it while it lasts: a part slides on when the belt
 stops (``v^2 / (2 mu g)``: 14 mm at 0.5 m/s, the belt's friction 0.9) and a bolt lying
 across the belt rolls, so a short part can clear the barrier on its own; the belt used to
 run again then and carried it out of reach. The controller reads only that sensor,
@@ -28,6 +30,9 @@ __all__ = ["BARRIER_HEIGHT", "BELT_RGBA", "Conveyor", "add_conveyor"]
 BARRIER_HEIGHT = 0.0012  # the barrier's beam above the belt (m): below a washer's 2 mm
 BELT_RGBA = (0.22, 0.30, 0.42, 1.0)  # blue-grey PVC belt
 _RAIL = 0.006  # rail height above the belt (m)
+# m of belt run with the barrier clear before a break latches the belt: a part arriving
+# (the parts come a spacing apart), not the part the cup lifts passing the beam again
+_ARRIVAL_RUN = 0.005
 
 
 def add_conveyor(spec: mujoco.MjSpec) -> None:
@@ -129,10 +134,11 @@ class Conveyor:
     running: bool = True
     release: float = 0.0  # m: run on past a broken barrier until it has been clear this far
     latched: bool = False  # index mode: stopped by the barrier, waiting for proceed()
+    _clear_run: float = math.inf  # m of belt run since the barrier was last broken
 
     def proceed(self) -> None:
         """The controller's go-ahead after a stop at the barrier: the belt runs again as
-        soon as the barrier is clear (at once if it is)."""
+        soon as the barrier is clear (at once if it is), until the next break."""
         self.latched = False
 
     def release_part(self, distance: float = 0.03) -> None:
@@ -162,13 +168,17 @@ class Conveyor:
         ``held``: the belt stands still whatever the barrier says (a stop fault, or a
         controller's hold)."""
         blocked = self.mode == "index" and self.barrier_blocked(data)
-        if blocked and self.release <= 0.0:
-            self.latched = True
+        if blocked and self._clear_run >= _ARRIVAL_RUN and self.release <= 0.0:
+            self.latched = True  # a part arriving (not the lifted part passing the beam again)
         run = not held and (self.mode == "continuous" or self.release > 0.0
                             or not (blocked or self.latched))
         if run != self.running:
             self._apply(self.speed if run else 0.0)
             self.running = run
+        if blocked:
+            self._clear_run = 0.0
+        elif run:
+            self._clear_run += self.speed * dt
         if run:
             self.travel += self.speed * dt
             if self.release > 0.0 and not self.barrier_blocked(data):

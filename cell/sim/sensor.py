@@ -150,6 +150,9 @@ def salt_and_pepper(image: np.ndarray, fraction: float, rng: np.random.Generator
     pixels[where] = white[:, None]
 
 
+_NO_RAY_PX = 0.5  # px: a pixel whose undistorted point maps back farther sees no ray
+
+
 @dataclass
 class SensorModel:
     """Sensor parameters: noise in grey levels, s&p fraction, distortion, bits, gain.
@@ -168,36 +171,79 @@ class SensorModel:
     distortion: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0)
     bits: int = 8
     _maps: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    _pad: tuple[int, int] = field(default=(0, 0), repr=False, compare=False)
     _bank: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def distorts(self) -> bool:
         return any(abs(c) > 0 for c in self.distortion)
 
-    def _distortion_maps(self) -> tuple[np.ndarray, np.ndarray]:
-        """For each pixel of the distorted image, where to sample the ideal one.
+    def _ideal_positions(self) -> np.ndarray:
+        """For each pixel (v, u) of the distorted image, float64 (H, W, 2), the position (x,
+        y) in the ideal pinhole image (same K) that it sees: its undistorted point
+        (``cv2.undistortPointsIter``) projected back through K. A model that folds the image
+        (a barrel lens turning back before the corners) has no such position for some
+        pixels (the undistortion stops anywhere): a ``SimError`` naming the first."""
+        u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
+        pts = np.stack([u.ravel(), v.ravel()], axis=1).astype(np.float64)[:, None, :]
+        dist = np.asarray(self.distortion, np.float64)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-9)
+        ideal = cv2.undistortPointsIter(pts, self.K, dist, None, self.K, criteria).reshape(-1, 2)
+        with np.errstate(invalid="ignore", over="ignore"):
+            rays = np.c_[(ideal - self.K[:2, 2]) / np.diag(self.K)[:2], np.ones(len(ideal))]
+            back = cv2.projectPoints(np.nan_to_num(rays, nan=0.0, posinf=1e6, neginf=-1e6),
+                                     np.zeros(3), np.zeros(3), self.K, dist)[0].reshape(-1, 2)
+            lost = ~(np.abs(back - pts.reshape(-1, 2)).max(axis=1) <= _NO_RAY_PX)
+        if lost.any():
+            x, y = pts.reshape(-1, 2)[int(np.argmax(lost))]
+            raise SimError(f"sensor.distortion {list(self.distortion)}: the lens model folds the "
+                           f"image (pixel ({x:g}, {y:g}) and {int(lost.sum()) - 1} more see no "
+                           "ray of it): weaker coefficients, or a narrower camera.fovy")
+        return ideal.reshape(self.height, self.width, 2)
 
-        A distorted pixel's ideal position is its undistorted point
-        (``cv2.undistortPointsIter``) projected back through K.
-        """
+    def padding(self) -> tuple[int, int]:
+        """(x, y) pixels by which the ideal render reaches beyond the image on each side, so
+        that every distorted pixel samples what the lens sees there: a barrel lens sees
+        more than the pinhole view near the corners ([-0.2, 0.05, 0, 0, 0] at 40 degrees
+        reaches 27 px beyond it; the edge pixels were repeated over 9 % of the image). (0, 0)
+        without distortion; a ``SimError`` when the render would have to be over twice the
+        image's size."""
+        if not self.distorts:
+            return (0, 0)
         if self._maps is None:
-            u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
-            pts = np.stack([u.ravel(), v.ravel()], axis=1).astype(np.float64)[:, None, :]
-            criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-9)
-            ideal = cv2.undistortPointsIter(
-                pts, self.K, np.asarray(self.distortion, np.float64), None, self.K, criteria
-            ).reshape(self.height, self.width, 2)
-            self._maps = (ideal[..., 0].astype(np.float32), ideal[..., 1].astype(np.float32))
+            ideal = self._ideal_positions()
+            x, y = ideal[..., 0], ideal[..., 1]
+            pad = (math.ceil(max(0.0, -x.min(), x.max() - (self.width - 1))) + 1,
+                   math.ceil(max(0.0, -y.min(), y.max() - (self.height - 1))) + 1)
+            if pad[0] > self.width // 2 or pad[1] > self.height // 2:
+                raise SimError(f"sensor.distortion {list(self.distortion)}: the lens sees "
+                               f"{pad[0]} x {pad[1]} px beyond the pinhole view on each side, "
+                               "more than half the image: weaker coefficients, or a narrower "
+                               "camera.fovy")
+            self._maps = ((x + pad[0]).astype(np.float32), (y + pad[1]).astype(np.float32))
+            self._pad = pad
+        return self._pad
+
+    def _distortion_maps(self) -> tuple[np.ndarray, np.ndarray]:
+        """For each pixel of the distorted image, where to sample the ideal render, which
+        reaches :meth:`padding` beyond the image on each side."""
+        self.padding()
         return self._maps
 
     def warp(self, image: np.ndarray, *, nearest: bool = False) -> np.ndarray:
-        """Apply the lens distortion to an ideal image (any dtype cv2.remap takes).
+        """Apply the lens distortion to an ideal render (any dtype cv2.remap takes) of the
+        image's size plus :meth:`padding` on each side; the image's size out.
 
         Returns ``image`` itself when there is no distortion.
         """
         if not self.distorts:
             return image
         mx, my = self._distortion_maps()
+        px, py = self._pad
+        if image.shape[:2] != (self.height + 2 * py, self.width + 2 * px):
+            raise SimError(f"sensor: expected an ideal render of {self.width + 2 * px} x "
+                           f"{self.height + 2 * py} px (the image and the lens' padding), got "
+                           f"{image.shape[1]} x {image.shape[0]}")
         interp = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
         return cv2.remap(image, mx, my, interp, borderMode=cv2.BORDER_REPLICATE)
 
@@ -208,14 +254,16 @@ class SensorModel:
         return self._bank
 
     def apply(self, rgb: np.ndarray, rng: np.random.Generator, *, gain: float = 1.0) -> np.ndarray:
-        """The delivered image, uint8 (H, W, 3), from an ideal uint8 (H, W, 3) render.
+        """The delivered image, uint8 (H, W, 3), from an ideal uint8 render (H, W, 3; with
+        distortion, :meth:`padding` larger on each side).
 
         ``gain`` (>= 0) multiplies the read noise. ``rgb`` is never modified; it is
         returned itself when the model changes nothing (no distortion, noise, s&p, bits 8).
         """
-        if rgb.dtype != np.uint8 or rgb.shape != (self.height, self.width, 3):
-            raise SimError(f"sensor: expected a uint8 ({self.height}, {self.width}, 3) image, got "
-                             f"{rgb.dtype} {rgb.shape}")
+        px, py = self.padding()
+        shape = (self.height + 2 * py, self.width + 2 * px, 3)
+        if rgb.dtype != np.uint8 or rgb.shape != shape:
+            raise SimError(f"sensor: expected a uint8 {shape} image, got {rgb.dtype} {rgb.shape}")
         if not (math.isfinite(gain) and gain >= 0):
             raise SimError(f"sensor: gain must be finite and >= 0, got {gain}")
         out = self.warp(rgb)

@@ -204,7 +204,10 @@ class World:
         return self.conveyor.barrier_blocked(self.data)
 
     def step(self, n: int = 1) -> None:
-        """Advance ``n`` physics steps, running the conveyor and spawning parts."""
+        """Advance ``n`` (an integer >= 0) physics steps, running the conveyor and spawning
+        parts."""
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
+            raise SimError(f"step: n must be a whole number of physics steps >= 0, got {n!r}")
         dt = self.model.opt.timestep
         spacing = self.scenario.parts.spacing
         for _ in range(n):
@@ -220,9 +223,15 @@ class World:
     def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
         """Run until the light barrier is broken, then ``settle`` seconds more.
 
-        Returns False if nothing reached the barrier within ``timeout`` simulated seconds.
-        Only meaningful in ``index`` mode (in ``continuous`` mode parts pass through).
+        Returns False if nothing reached the barrier within ``timeout`` simulated seconds
+        (both finite, >= 0). Only meaningful in ``index`` mode (in ``continuous`` mode parts
+        pass through).
         """
+        for name, value in (("timeout", timeout), ("settle", settle)):
+            if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating) \
+                    or not 0 <= value < math.inf:
+                raise SimError(f"run_until_part_at_pick: {name} must be a finite time >= 0 (s), "
+                               f"got {value!r}")
         end = self.time + timeout
         while not self.barrier_blocked:
             if self.time >= end:
@@ -323,7 +332,9 @@ class World:
         self.data.qvel[dof : dof + 6] = [*v, 0, 0, 0]
 
     def part_pose(self, part_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """GROUND TRUTH, for scoring only: position (3,) metres and quaternion wxyz (4,)."""
+        """GROUND TRUTH, for scoring only: position (3,) metres and quaternion wxyz (4,). A
+        part out of play (waiting, binned and at rest, caught: see :meth:`place_of`) is
+        parked off stage, metres from the cell: its pose is the parking spot's."""
         body = self._part(part_id).body_id
         return self.data.xpos[body].copy(), self.data.xquat[body].copy()
 

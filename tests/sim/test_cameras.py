@@ -80,6 +80,47 @@ def test_sensor_distortion_moves_points_as_the_model_says(world_factory):
             assert np.linalg.norm(ideal - found[part.id]) > 3.0
 
 
+def test_a_barrel_lens_sees_the_corners_where_its_model_says(world_factory):
+    """The ideal render of a distorting lens reaches beyond the image (its field of view
+    widened, its focal length kept): a disc the model puts at pixel (12, 12) is rendered
+    where camera.json projects it."""
+    import cv2
+
+    dist = [-0.2, 0.05, 0.0, 0.0, 0.0]
+    world = world_factory(parts={"count": 1, "kinds": ["disc"]},
+                          sensor={"noise_std": 0.0, "distortion": dist})
+    cam = world.camera_model()
+    n = cv2.undistortPointsIter(np.array([[[12.0, 12.0]]]), cam.K, np.array(dist), None, None,
+                                (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)).ravel()
+    ray = cam.T_world_camera[:3, :3] @ [n[0], n[1], 1.0]
+    centre = cam.T_world_camera[:3, 3]
+    spot = centre + (KINDS["disc"].height - centre[2]) / ray[2] * ray  # (on the table)
+    world.place_next_part(float(spot[0]), float(spot[1]), 0.0)
+    world.step(50)
+    pos, _ = world.part_pose(1)
+    turn = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    radius = KINDS["disc"].length / 2
+    rim = pos + np.stack([radius * np.cos(turn), radius * np.sin(turn),
+                          np.full(400, KINDS["disc"].height / 2)], axis=1)  # the top's edge
+    model = np.zeros((480, 640), np.uint8)
+    cv2.fillPoly(model, [np.round(cam.project(rim)).astype(np.int32)], 1)
+    seen = world.render().seg == 1
+    iou = np.count_nonzero(seen & (model > 0)) / np.count_nonzero(seen | (model > 0))
+    assert iou > 0.9, iou  # (its side, seen at the corner, is no part of the top's rim)
+
+
+def test_a_lens_model_that_folds_the_image_is_refused(world_factory):
+    """k1 = -0.3 at a 60-degree field of view turns back before the corners: 20 % of the
+    pixels were rendered up to 350 px from where camera.json put what they showed."""
+    from cell.errors import SimError
+
+    world = world_factory(parts={"count": 1}, camera={"fovy": 60.0},
+                          sensor={"distortion": [-0.3, 0.0, 0.0, 0.0, 0.0]})
+    with pytest.raises(SimError, match=r"sensor.distortion \[-0.3, 0.0, 0.0, 0.0, 0.0\]: the lens "
+                       r"model folds the image .*narrower camera.fovy"):
+        world.render()
+
+
 def test_segmentation_maps_mujocos_raw_ids_to_part_ids(world_factory):
     world = world_factory(parts={"count": 3, "kinds": ["washer"]}, sensor={"noise_std": 0.0})
     for x, y in [(-0.05, 0.42), (0.0, 0.45), (0.05, 0.48)]:

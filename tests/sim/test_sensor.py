@@ -232,3 +232,33 @@ def test_id_mapping_of_background_and_sites_only_is_zero():
     raw[2] = (19, GEOM)
     assert np.array_equal(part_ids(raw, part_lut(part_of_geom))[[0, 1, 3]], np.zeros((3, 5)))
     assert np.all(part_ids(raw, part_lut(part_of_geom))[2] == 20)
+
+
+def test_a_barrel_lens_samples_beyond_the_pinhole_view():
+    """[-0.2, 0.05, 0, 0, 0] at a 40-degree field of view sees 27 px beyond the pinhole
+    view at the corners: the model asks for a render that much larger on each side and
+    samples it where the lens looks (the edge pixels were repeated over 9 % of the image)."""
+    import cv2
+
+    f = 0.5 * H / np.tan(np.radians(20.0))
+    K40 = np.array([[f, 0.0, (W - 1) / 2], [0.0, f, (H - 1) / 2], [0.0, 0.0, 1.0]])
+    dist = (-0.2, 0.05, 0.0, 0.0, 0.0)
+    model = SensorModel(K=K40, width=W, height=H, distortion=dist)
+    px, py = model.padding()
+    assert px >= 27 and py >= 20
+    ideal_x = np.tile(np.arange(W + 2 * px, dtype=np.float32) - px, (H + 2 * py, 1))
+    seen = model.warp(ideal_x)  # what each pixel sees: the ideal x it samples
+    corner = cv2.undistortPointsIter(np.array([[[0.0, 0.0]]]), K40, np.array(dist), None, K40,
+                                     (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12))
+    assert seen.shape == (H, W) and corner[0, 0, 0] < -10
+    assert seen[0, 0] == pytest.approx(corner[0, 0, 0], abs=0.04)  # (remap: 1/32 px steps)
+    with pytest.raises(SimError, match="expected an ideal render of"):
+        model.warp(np.zeros((H, W), np.float32))
+
+
+def test_a_lens_model_that_folds_the_image_is_a_sim_error():
+    f = 0.5 * H / np.tan(np.radians(30.0))
+    K60 = np.array([[f, 0.0, (W - 1) / 2], [0.0, f, (H - 1) / 2], [0.0, 0.0, 1.0]])
+    for dist in ((-0.3, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 1.0, 0.0)):
+        with pytest.raises(SimError, match="the lens model folds the image"):
+            SensorModel(K=K60, width=W, height=H, distortion=dist).padding()

@@ -70,3 +70,23 @@ def test_a_world_is_a_context_manager():
     with World.build(scenario_from_dict({"parts": {"count": 1}}), arm=False) as world:
         world.render(depth=False, seg=False)
     assert world._rigs == {}
+
+
+@pytest.mark.parametrize("n", [-5, 2.5, "3", float("nan"), True])
+def test_step_takes_a_whole_number_of_steps(world_factory, n):
+    """step(-5) did nothing without a word; step(nan), step(2.5), step('3') raised a raw
+    TypeError."""
+    world = world_factory(parts={"count": 1})
+    with pytest.raises(SimError, match="step: n must be a whole number of physics steps"):
+        world.step(n)
+
+
+@pytest.mark.parametrize(("kwargs", "culprit"), [
+    ({"timeout": float("nan")}, "timeout"), ({"timeout": -1.0}, "timeout"),
+    ({"settle": float("nan")}, "settle"), ({"settle": float("inf")}, "settle"),
+])
+def test_run_until_part_at_pick_takes_finite_times(world_factory, kwargs, culprit):
+    """timeout=nan never returned; settle=nan raised a raw ValueError."""
+    world = world_factory(parts={"count": 1})
+    with pytest.raises(SimError, match=f"run_until_part_at_pick: {culprit} must be a finite time"):
+        world.run_until_part_at_pick(**kwargs)

@@ -52,20 +52,22 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run ``cell COMMAND ...`` (``argv``; None: the program's own arguments) and return
-    its exit status. As the program, Ctrl-C and SIGTERM are ignored once the command is
-    done, while the interpreter shuts down (MuJoCo's EGL display, rerun's threads: tens of
-    milliseconds): the work is whole by then, and a signal there gave a traceback of the
-    shutdown, or a status of 130 with no word."""
-    status = _command(argv)
-    if argv is None and threading.current_thread() is threading.main_thread():
+def run() -> None:
+    """The ``cell`` program: :func:`main` with the program's arguments, then exit with its
+    status. Ctrl-C and SIGTERM are ignored once the command is done, while the interpreter
+    shuts down (MuJoCo's EGL display, rerun's threads: tens of milliseconds): the work is
+    whole by then, and a signal there gave a traceback of the shutdown, or a status of 130
+    with no word. (From Python, call :func:`main`: it leaves the signals as they are.)"""
+    status = main()
+    if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):  # (an ignored signal stays ignored
             signal.signal(sig, signal.SIG_IGN)       # through the shutdown; a handler not)
-    return status
+    sys.exit(status)
 
 
-def _command(argv: list[str] | None) -> int:
+def main(argv: list[str] | None = None) -> int:
+    """Run ``cell COMMAND ...`` (``argv``; None: the program's own arguments) and return
+    its exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv:
         print(_usage(), file=sys.stderr)
@@ -116,4 +118,4 @@ def _catch_sigterm() -> object | None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -119,9 +119,9 @@ def test_a_signal_once_the_command_is_done_changes_nothing():
     """Ctrl-C or SIGTERM in the tens of milliseconds the interpreter takes to shut down,
     the work done: exit status the command's, no word (a traceback of MuJoCo's EGL
     clean-up, or 130 with no line, before)."""
-    code = ("import os, signal, sys; from cell.cli import main; status = main(); "
-            "os.kill(os.getpid(), signal.SIGINT); os.kill(os.getpid(), signal.SIGTERM); "
-            "sys.exit(status)")
+    code = ("import atexit, os, signal; from cell.cli import run; "
+            "atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), "
+            "os.kill(os.getpid(), signal.SIGTERM))); run()")
     r = subprocess.run([sys.executable, "-c", code, "--version"], capture_output=True, text=True,
                        timeout=60)
     assert r.returncode == 0 and r.stdout.startswith("cell ") and r.stderr == "", r

@@ -105,5 +105,7 @@ def place_scene(world, rng: np.random.Generator, layout) -> list[int]:
         world.place_next_part(x, y, yaw)
         placed.append((part.kind, x, y, yaw))
         ids.append(part.id)
-    world.step(150)  # settle: parts come to rest
+    for _ in range(150):  # settle: parts come to rest, the belt running while no part
+        world.conveyor.proceed()  # breaks the barrier (no latch: a scene is no cycle of
+        world.step(1)  # the sort job, and every table was measured on these frames)
     return ids

@@ -2,10 +2,11 @@
 
 :func:`cell.jobs.sort.run_sort` builds a ``SortLoop`` and runs one of its two modes:
 
-- ``run_index``: the belt runs until a part breaks the light barrier and stops; while it
-  stands still (its encoder does not count) the arm picks every part it can from the
-  pick window (looking again after each pick, and once more while unsure), then lets go
-  of whatever still blocks the barrier;
+- ``run_index``: the belt runs until a part breaks the light barrier and stops (latched:
+  :mod:`cell.sim.conveyor`); while it stands still (its encoder does not count) the arm
+  picks every part it can from the pick window (looking again after each pick, and once
+  more while unsure), giving the belt its go-ahead as each part leaves the belt in the
+  cup, then lets go of whatever still blocks the barrier;
 - ``run_continuous``: the belt never stops; the arm meets each part where the belt's
   encoder says it will be when the cup gets there.
 
@@ -172,8 +173,8 @@ class SortLoop:
         self.keeper.attach(record, det)  # scoring only: the job never reads what it matched
         target = PartTarget(grasp_kind(det), det.position[0], det.position[1], det.yaw,
                             record.bin, vx=vx, seen_at=cap.t)
-        try:
-            result = self.skill.run(target)
+        try:  # once the part is off the belt, the belt may bring the next (index mode)
+            result = self.skill.run(target, lifted=self.world.conveyor.proceed)
         except IKError as exc:
             record.result, record.message = "unreachable", str(exc)
         except GraspError as exc:
@@ -296,14 +297,19 @@ class SortLoop:
                     break  # part is on its way; it is picked when the belt has stopped
                 cap, todo, second = self._look_for_parts()
                 if not todo:
+                    self._let_go_if_stuck()
                     break
-                if self.world.barrier_blocked:  # the belt runs on once the cup lifts what
-                    self.world.conveyor.proceed()  # blocks the barrier, till the next part
                 self._pick(todo[0], cap, second_look=second)
-            if self.world.barrier_blocked and not self._belt_moving():  # left at the barrier:
-                self._let_go += 1  # it cannot be picked
-                self._event("a part at the barrier is let go", "warning")
-                self.world.conveyor.release_part()
+            else:
+                self._let_go_if_stuck()
+
+    def _let_go_if_stuck(self) -> None:
+        """A part left at the barrier, looked at and not picked (found by no look, or
+        given up on), is let go: the belt runs on past the barrier with it."""
+        if self.world.barrier_blocked and not self._belt_moving():
+            self._let_go += 1
+            self._event("a part at the barrier is let go", "warning")
+            self.world.conveyor.release_part()
 
     def _all_through(self, x: float) -> bool:
         """Whether the feeder has put out its last part (its counter) and the belt has run

@@ -189,8 +189,10 @@ class ArmIK:
         Raises ``IKError`` naming ``what`` and the target when the solver does not reach
         the tolerance in ``ik_max_iterations``: "unreachable or blocked" when it stops
         far from the target, "not to the tolerance" when it came within ``_NEAR_P`` m
-        and ``_NEAR_R`` rad (a tolerance finer than the solver reaches). Independent
-        of the arm's speed limits.
+        and ``_NEAR_R`` rad (a tolerance finer than the solver reaches), or a solution
+        that sinks the cup into the furniture. Independent of the arm's speed limits. A
+        caller's bug is a ``RobotError`` (not an ``IKError``, which the sort job files as an
+        unreachable part): numbers that are not finite, a seed outside the joint ranges.
         """
         s = self.settings
         position = finite_vector("position", position, 3, RobotError)

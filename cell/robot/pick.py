@@ -226,8 +226,10 @@ class PickPlace:
         return self.plan(part.at(self._arrival))
 
     # --- execution ------------------------------------------------------------------
-    def _execute(self, part: PartTarget, wp: dict[str, np.ndarray], name: str) -> list:
-        """Drive one planned cycle; returns the executed segments."""
+    def _execute(self, part: PartTarget, wp: dict[str, np.ndarray], name: str,
+                 lifted: Callable[[], None] | None) -> list:
+        """Drive one planned cycle (``lifted()`` once the part is held off the belt);
+        returns the executed segments."""
         d = self.driver
         via = self.settings.via_tolerance
         # over a part riding on the belt the cup does not wait to settle: the part would
@@ -240,6 +242,8 @@ class PickPlace:
         if not self.cup.sealed():  # verify: the vacuum switch must report a held part
             raise GraspError(f"grasp of {name} failed: the vacuum switch reads "
                              f"{self.cup.reading():.2f} N after the lift, no part held")
+        if lifted is not None:
+            lifted()
         segs.append(d.move(wp["bin"], what=f"transfer of {name}", tolerance=via))
         if not self.cup.sealed():
             raise GraspError(f"{name} was lost during the transfer to bin '{part.bin}'", lost=True)
@@ -265,8 +269,10 @@ class PickPlace:
             self.driver.move(home, what="home after an aborted pick")
         return error
 
-    def run(self, part: PartTarget) -> PickResult:
-        """Pick ``part`` and place it in its bin; returns a :class:`PickResult`.
+    def run(self, part: PartTarget, *, lifted: Callable[[], None] | None = None) -> PickResult:
+        """Pick ``part`` and place it in its bin; returns a :class:`PickResult`. ``lifted``,
+        when given, is called once the part is held above the belt (the sort job gives the
+        conveyor its go-ahead there).
 
         Raises ``IKError`` (no solution, nothing moved), ``GraspError`` (the vacuum switch
         reports no part after the lift, or lost on the way; ``lost`` says which) or
@@ -279,7 +285,7 @@ class PickPlace:
         part = part.at(self._arrival)
         name = f"{part.kind} at ({part.x:.3f}, {part.y:.3f}) m"
         try:
-            segs = self._execute(part, wp, name)
+            segs = self._execute(part, wp, name, lifted)
         except MotionError as exc:
             raise self._abort(exc) from None
         d = self.driver

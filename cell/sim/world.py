@@ -221,7 +221,8 @@ class World:
             self.stage.after_step()
 
     def run_until_part_at_pick(self, timeout: float = 30.0, settle: float = 0.3) -> bool:
-        """Run until the light barrier is broken, then ``settle`` seconds more.
+        """Give the belt its go-ahead (``conveyor.proceed``: index mode latches it at each
+        part) and run until the light barrier is broken, then ``settle`` seconds more.
 
         Returns False if nothing reached the barrier within ``timeout`` simulated seconds
         (both finite, >= 0). Only meaningful in ``index`` mode (in ``continuous`` mode parts
@@ -233,6 +234,7 @@ class World:
                 raise SimError(f"run_until_part_at_pick: {name} must be a finite time >= 0 (s), "
                                f"got {value!r}")
         end = self.time + timeout
+        self.conveyor.proceed()
         while not self.barrier_blocked:
             if self.time >= end:
                 return False

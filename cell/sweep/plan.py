@@ -155,7 +155,9 @@ def plan_sweep(spec: SweepSpec) -> Plan:
     for i, case in enumerate(spec.cases, 1):
         for key in (k for axis in case.axes for k in axis.keys if k in fixed):
             raise SweepError(f"{escape(spec.source)}: case {i}: key '{escape(key)}' is both fixed "
-                             f"in {fixed[key]} and varied in the grid; keep one")
+                             f"in {fixed[key]} and set in the grid or the case (which would win "
+                             f"while summary.md says fixed); set it in one place: in each case, "
+                             f"or in [grid]")
     columns = _columns(spec, modules)
     runs: dict[str, Run] = {}
     settings_cache: dict[str, Any] = {}

@@ -55,6 +55,50 @@ def test_the_belt_waits_for_the_go_ahead_though_a_part_rolls_past_the_barrier(wo
     assert world.conveyor.running and world.part_pose(1)[0][0] > pos[0] + 0.1
 
 
+def test_each_run_to_the_pick_zone_gives_the_go_ahead(world_factory):
+    """The second call waited with the belt latched by the first part (it rolled past the
+    barrier) and returned False; it gives the go-ahead and brings the next part."""
+    world = world_factory(seed=25, parts={"count": 2, "kinds": ["bolt"]},
+                          conveyor={"speed": 0.5})
+    assert world.run_until_part_at_pick(timeout=20, settle=1.5)
+    assert not world.barrier_blocked and world.conveyor.latched
+    assert world.run_until_part_at_pick(timeout=20)
+    assert world.part_pose(2)[0][0] > layout.BARRIER_X - 0.05
+
+
+def test_only_a_part_arriving_latches_the_belt(world_factory):
+    """The part the cup lifts passes the beam again: a break within 5 mm of belt run after
+    the barrier cleared stops the belt while it lasts but does not latch it (latching held
+    the belt through the arm's transfer: fewer parts a minute); a break after a longer
+    clear run, a part arriving, latches it until ``proceed``."""
+    world = world_factory(parts={"count": 1}, conveyor={"speed": 0.1})
+    belt, beam = world.conveyor, {"blocked": False}
+    belt.barrier_blocked = lambda data: beam["blocked"]
+    dt = world.model.opt.timestep
+
+    def ticks(n: int, blocked: bool) -> None:
+        beam["blocked"] = blocked
+        for _ in range(n):
+            belt.update(world.data, dt)
+
+    ticks(100, False)
+    ticks(1, True)  # a part arrives
+    assert belt.latched and not belt.running
+    belt.proceed()
+    ticks(10, True)  # the cup still on it
+    assert not belt.latched and not belt.running
+    ticks(1, False)  # lifted
+    assert belt.running
+    ticks(3, True)  # the lifted part in the beam again: 0.2 mm of run
+    assert not belt.running and not belt.latched
+    ticks(30, False)  # 6 mm
+    assert belt.running
+    ticks(1, True)  # the next part
+    assert belt.latched and not belt.running
+    ticks(50, False)  # it rolls past the beam: the belt waits
+    assert belt.latched and not belt.running
+
+
 def test_continuous_mode_never_stops(world_factory):
     world = world_factory(parts={"count": 1, "kinds": ["disc"]},
                           conveyor={"speed": 0.2, "mode": "continuous"})

@@ -125,9 +125,9 @@ def test_a_case_runs_another_job_with_its_own_seeds(tmp_path):
     ('[grid]\n"lighting.x" = [1]\n', "'lighting' is not a section"),
     ('[scenario]\n"parts.count" = 6\n[grid]\n"parts.count" = [2, 3]\n',  # (runs took 2 and 3:
      # summary.md said "fixed: parts.count = 6")
-     "case 1: key 'parts.count' is both fixed in [scenario] and varied in the grid"),
+     "case 1: key 'parts.count' is both fixed in [scenario] and set in the grid or the case"),
     ('[job]\ngap_mm = 1.0\n[grid]\n"job.gap_mm" = [2.0, 3.0]\n',
-     "key 'job.gap_mm' is both fixed in [job] and varied"),
+     "key 'job.gap_mm' is both fixed in [job] and set in the grid"),
 ])
 def test_bad_sweep_files_are_one_error(tmp_path, text, words):
     with pytest.raises(SweepError) as info:

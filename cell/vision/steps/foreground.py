@@ -213,5 +213,7 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
             t = {"fixed": lambda: float(st.threshold), "otsu": lambda: float(threshold_otsu(diff)),
                  "iterative": lambda: float(threshold_iterative(diff))}[st.segmentation]()
             mask = threshold_fixed(diff, value=t, polarity=polarity)
+            if st.segmentation != "fixed" and diff.min() == diff.max():
+                mask[:] = False  # one grey level: no two classes, whatever the polarity
     mask = opening(mask.view(np.uint8) * np.uint8(255))
     return Foreground(mask, diff, belt, t, backlit, smoothed, noise)

@@ -165,3 +165,12 @@ def test_a_part_as_wide_as_the_default_window_stays_whole_in_a_fine_frame():
 def _disc(r: int) -> np.ndarray:
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
     return xx**2 + yy**2 <= (r - 2) ** 2
+
+
+@pytest.mark.parametrize("method", ["otsu", "iterative"])
+def test_a_one_level_light_table_has_no_foreground(method):
+    """One grey level has no two classes: Otsu's threshold is the level, which on a light
+    table (dark polarity, image <= t) made the whole frame foreground."""
+    frame = np.full((120, 160, 3), 230, np.uint8)
+    fg = find_foreground(frame, VisionSettings(segmentation=method))
+    assert fg.backlit and not fg.mask.any()

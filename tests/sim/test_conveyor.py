@@ -115,3 +115,20 @@ def test_parts_spawn_one_after_another_with_the_set_spacing(world_factory):
     assert world.spawned == 4
     gaps = -np.diff(xs)
     assert np.allclose(gaps, 0.12, atol=0.005)
+
+
+def test_parts_at_the_closest_spacing_do_not_spawn_into_each_other(world_factory):
+    """At 4 cm of spacing two L brackets (50 mm across) were dropped 2 mm into each other
+    and settled on top of one another, tilted 5-7 degrees: a part now waits until the
+    last one is clear of the spawn point."""
+    import math
+
+    world = world_factory(seed=3, parts={"count": 8, "kinds": ["l_bracket"], "spacing": 0.04,
+                                         "lateral_range": 0.0},
+                          conveyor={"speed": 0.1, "mode": "continuous"})
+    while world.spawned < 8:
+        world.step(10)
+    world.step(300)
+    for part in world.on_stage:
+        R = world.data.xmat[part.body_id].reshape(3, 3)
+        assert math.degrees(math.acos(min(1.0, abs(R[2, 2])))) < 1.0, part.id  # lying flat

@@ -1,7 +1,7 @@
 """``cell run SCENARIO.toml``: the sort job, headless, with a summary, a report and a replay.
 
 Without ``--calibration`` the overhead camera is calibrated first (as ``cell calibrate
---camera overhead`` does, about 3 s) and, with ``--report``, that calibration is written
+--camera overhead --no-touch`` does, about 3 s) and, with ``--report``, that calibration is written
 beside the report (``<report>.calibration.json``) for the next run to reuse. With
 ``--report`` the JSON report is written atomically, and ``detections.png`` (the last
 capture with its detections drawn) goes beside it; ``--replay`` writes a rerun recording

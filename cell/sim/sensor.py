@@ -150,9 +150,6 @@ def salt_and_pepper(image: np.ndarray, fraction: float, rng: np.random.Generator
     pixels[where] = white[:, None]
 
 
-_NO_RAY_PX = 0.5  # px: a pixel whose undistorted point maps back farther sees no ray
-
-
 @dataclass
 class SensorModel:
     """Sensor parameters: noise in grey levels, s&p fraction, distortion, bits, gain.
@@ -190,11 +187,13 @@ class SensorModel:
         # (40 iterations stopped px short near the edges of strong, unfolded lenses)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
         ideal = cv2.undistortPointsIter(pts, self.K, dist, None, self.K, criteria).reshape(-1, 2)
+        from cell.camera import CameraModel
+        from cell.vision.geometry import no_ray  # (the detector's own test of a ray)
+
+        lens = CameraModel(self.width, self.height, self.K, dist, np.eye(4))
         with np.errstate(invalid="ignore", over="ignore"):
-            rays = np.c_[(ideal - self.K[:2, 2]) / np.diag(self.K)[:2], np.ones(len(ideal))]
-            back = cv2.projectPoints(np.nan_to_num(rays, nan=0.0, posinf=1e6, neginf=-1e6),
-                                     np.zeros(3), np.zeros(3), self.K, dist)[0].reshape(-1, 2)
-            lost = ~(np.abs(back - pts.reshape(-1, 2)).max(axis=1) <= _NO_RAY_PX)
+            normalised = (ideal - self.K[:2, 2]) / np.diag(self.K)[:2]
+        lost = no_ray(lens, normalised, pts.reshape(-1, 2))
         if lost.any():
             x, y = pts.reshape(-1, 2)[int(np.argmax(lost))]
             raise SimError(f"sensor.distortion {list(self.distortion)}: the lens model folds the "

@@ -73,11 +73,15 @@ def _largest_region(mask: np.ndarray) -> np.ndarray:
     return (labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))).view(np.uint8)
 
 
-def _outer_contour(mask: np.ndarray) -> np.ndarray:
-    """The outer boundary of the largest region (:func:`_largest_region`)."""
-    contours, _ = cv2.findContours(_largest_region(mask), cv2.RETR_EXTERNAL,
-                                   cv2.CHAIN_APPROX_NONE)
+def _outer_contour(region: np.ndarray) -> np.ndarray:
+    """The outer boundary of one region (uint8, as :func:`_largest_region` gives)."""
+    contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     return contours[0]
+
+
+def _length(contour: np.ndarray) -> float:
+    """A closed contour's length (0 for a single pixel's)."""
+    return 0.0 if len(contour) == 1 else float(cv2.arcLength(contour, closed=True))
 
 
 def perimeter(mask: np.ndarray) -> float:
@@ -87,11 +91,7 @@ def perimeter(mask: np.ndarray) -> float:
     (``cv2.findContours``); its length counts 1 per straight step and sqrt(2) per
     diagonal one (``cv2.arcLength``). Holes do not add to it.
     """
-    m = check_mask("mask", mask)
-    contour = _outer_contour(m)
-    if len(contour) == 1:
-        return 0.0
-    return float(cv2.arcLength(contour, closed=True))
+    return _length(_outer_contour(_largest_region(check_mask("mask", mask))))
 
 
 def _min_area_rect(mask: np.ndarray) -> tuple[float, float, float]:
@@ -120,9 +120,9 @@ def aspect_ratio(mask: np.ndarray) -> float:
     return length / width
 
 
-def _filled(mask: np.ndarray) -> np.ndarray:
-    contour = _outer_contour(mask)
-    out = np.zeros(mask.shape, np.uint8)
+def _filled(contour: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """bool ``shape``: the pixels inside ``contour``, holes filled."""
+    out = np.zeros(shape, np.uint8)
     cv2.drawContours(out, [contour], -1, 1, thickness=cv2.FILLED)
     return out.astype(bool)
 
@@ -138,11 +138,12 @@ def circularity(mask: np.ndarray) -> float:
     pixel 0). The measure means something from a few pixels of radius on.
     """
     m = check_mask("mask", mask)
-    return perimeter(m) ** 2 / (4 * math.pi * _filled(m).sum())
+    contour = _outer_contour(_largest_region(m))
+    return _length(contour) ** 2 / (4 * math.pi * _filled(contour, m.shape).sum())
 
 
-def _nonzero_perimeter(mask: np.ndarray) -> float:
-    p = perimeter(mask)
+def _nonzero(p: float) -> float:
+    """The perimeter ``p``, or the error of a single pixel's (0)."""
     if p == 0:
         raise VisionError("argument 'mask': the region is a single pixel, whose outline has "
                           "length 0, so its compactness A / P^2 is undefined")
@@ -156,7 +157,7 @@ def compactness(mask: np.ndarray) -> float:
     0): a ``VisionError``, as for an empty mask.
     """
     m = check_mask("mask", mask)
-    p = _nonzero_perimeter(m)
+    p = _nonzero(perimeter(m))
     return float(m.sum()) / (p * p)
 
 
@@ -190,8 +191,14 @@ def count_holes(mask: np.ndarray, *, min_area: int = 1) -> int:
     at least ``min_area`` pixels, 0 to 2**31 - 1) in the largest region of ``mask``."""
     m = check_mask("mask", mask)
     min_area = check_int("min_area", min_area, 0, MAX_AREA)
-    filled = _filled(m)
-    holes = (filled & ~_largest_region(m).view(bool)).view(np.uint8)  # an island in a hole is in it
+    region = _largest_region(m)
+    return _holes(region, _filled(_outer_contour(region), m.shape), min_area)
+
+
+def _holes(region: np.ndarray, filled: np.ndarray, min_area: int) -> int:
+    """Holes of ``region`` (uint8) of at least ``min_area`` pixels, ``filled`` its pixels
+    with holes filled (an island in a hole is in it)."""
+    holes = (filled & ~region.view(bool)).view(np.uint8)
     n, _, stats, _ = cv2.connectedComponentsWithStats(holes, connectivity=4)
     return int(np.sum(stats[1:, cv2.CC_STAT_AREA] >= min_area))
 
@@ -213,8 +220,10 @@ def describe_shape(mask: np.ndarray, *, min_hole_area: int = 4) -> ShapeDescript
     min_hole_area = check_int("min_hole_area", min_hole_area, 0, MAX_AREA)
     if not m.any():
         raise VisionError("argument 'mask': the mask is empty")
-    p = _nonzero_perimeter(m)
-    filled = _filled(m)
+    region = _largest_region(m)
+    contour = _outer_contour(region)
+    p = _nonzero(_length(contour))
+    filled = _filled(contour, m.shape)
     length, width, angle = _min_area_rect(m)
     mom = cv2.moments(m.view(np.uint8), binaryImage=True)
     area = int(m.sum())
@@ -231,5 +240,5 @@ def describe_shape(mask: np.ndarray, *, min_hole_area: int = 4) -> ShapeDescript
         hu=tuple(float(v) for v in cv2.HuMoments(mom).ravel()),
         orientation=orientation(m),
         centroid=(mom["m10"] / mom["m00"], mom["m01"] / mom["m00"]),
-        holes=count_holes(m, min_area=min_hole_area),
+        holes=_holes(region, filled, min_hole_area),
     )

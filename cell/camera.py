@@ -20,13 +20,14 @@ a value out of its range is named with the range.
 from __future__ import annotations
 
 import json
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from cell import files
 from cell.errors import CalibrationError
+from cell.text import show
 
 __all__ = ["FOCAL_RANGE", "MAX_DISTORTION", "MAX_FILE_BYTES", "MAX_SIDE", "MAX_TRANSLATION", "TOLERANCE",
            "CameraFields", "CameraModel", "check_camera_fields", "check_pose", "read_json_file"]
@@ -114,10 +115,8 @@ class CameraModel:
     def save(self, path: str | Path) -> None:
         """Write the model as ``camera.json``, whole or not at all (``CalibrationError``
         naming the path when it cannot be written)."""
-        from cell.files import atomic_write_text
-
-        atomic_write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n",
-                          kind="camera file", error=CalibrationError)
+        files.atomic_write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n",
+                                kind="camera file", error=CalibrationError)
 
     @classmethod
     def from_dict(cls, data: object, *, where: str = "camera model") -> CameraModel:
@@ -137,8 +136,7 @@ class CameraModel:
         """Read a ``camera.json``: a ``CalibrationError`` naming the file (escaped) and
         the field for an unreadable file or any invalid content."""
         path = Path(path)
-        where = f"camera file {str(path)!r}"
-        return cls.from_dict(_read_json(path, where), where=where)
+        return cls.from_dict(read_json_file(path), where=f"camera file {str(path)!r}")
 
     @classmethod
     def from_calibration(cls, path: str | Path, name: str, *,
@@ -160,42 +158,11 @@ class CameraModel:
 
 def read_json_file(path: str | Path, *, kind: str = "camera file") -> object:
     """The JSON value in the file ``path``: a ``CalibrationError`` starting with ``kind``
-    and the file's name for a missing, unreadable, oversized, non-UTF-8 or non-JSON file."""
+    and the file's name for a missing, unreadable, oversized, non-UTF-8 or non-JSON file
+    (:func:`cell.files.read_json_file`)."""
     path = Path(path)
-    return _read_json(path, f"{kind} {str(path)!r}", kind=kind)
-
-
-def _read_json(path: Path, where: str, *, kind: str = "camera file") -> object:
-    """The JSON value in ``path``; ``where`` starts every error message."""
-    try:
-        info = path.stat()
-    except FileNotFoundError:
-        raise CalibrationError(f"no such {kind}: {str(path)!r}") from None
-    except OSError as exc:
-        raise CalibrationError(f"{where}: cannot read it ({exc.strerror})") from None
-    if stat.S_ISDIR(info.st_mode):
-        raise CalibrationError(f"{where}: is a directory, not a JSON file")
-    if not stat.S_ISREG(info.st_mode):
-        raise CalibrationError(f"{where}: not a regular file")
-    if info.st_size > MAX_FILE_BYTES:
-        raise CalibrationError(f"{where}: {info.st_size} bytes, too large for a {kind} "
-                               f"(at most {MAX_FILE_BYTES})")
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise CalibrationError(f"{where}: cannot read it ({exc.strerror})") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise CalibrationError(f"{where}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
-                               f"{exc.start}); expected JSON") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CalibrationError(f"{where}: not valid JSON: {exc.msg} (line {exc.lineno}, "
-                               f"column {exc.colno})") from None
-    except (ValueError, RecursionError) as exc:  # a 5000-digit number, [[[[...]]]] nested too deep
-        raise CalibrationError(f"{where}: not valid JSON: {_brief(str(exc), 80)}") from None
+    return files.read_json_file(path, f"{kind} {str(path)!r}", kind=kind, limit=MAX_FILE_BYTES,
+                                error=CalibrationError)
 
 
 def _fields(data: object) -> tuple:
@@ -248,7 +215,7 @@ def check_pose(name: str, value: object) -> np.ndarray:
 
 def _side(name: str, value: object) -> int:
     if not _is_int(value) or not 1 <= value <= MAX_SIDE:
-        raise CalibrationError(f"'{name}' must be an integer in 1..{MAX_SIDE} (pixels), got {_brief(value)}")
+        raise CalibrationError(f"'{name}' must be an integer in 1..{MAX_SIDE} (pixels), got {show(value)}")
     return int(value)
 
 
@@ -281,11 +248,11 @@ def _from_lists(name: str, value: object, want: str) -> np.ndarray:
              else [((i,), x) for i, x in enumerate(value)])
     for at, x in items:
         if not _is_real(x):
-            raise CalibrationError(f"{_element(name, at)} must be a number, got {_brief(x)}")
+            raise CalibrationError(f"{_element(name, at)} must be a number, got {show(x)}")
         try:
             float(x)
         except OverflowError:  # an integer of 400 digits
-            raise CalibrationError(f"{_element(name, at)} must be finite, got {_brief(x)}") from None
+            raise CalibrationError(f"{_element(name, at)} must be finite, got {show(x)}") from None
     if rows is not None and len({len(r) for r in rows}) > 1:
         raise CalibrationError(f"'{name}' must be {want}, got rows of lengths {[len(r) for r in rows]}")
     return np.array(value, dtype=np.float64)
@@ -363,10 +330,4 @@ def _row(values: np.ndarray) -> str:
 def _json_type(value: object) -> str:
     names = {type(None): "null", bool: "a boolean", int: "a number", float: "a number",
              str: "a string", list: "a list", tuple: "a list", dict: "an object"}
-    return names.get(type(value), type(value).__name__) + (f" {_brief(value)}" if _is_real(value) else "")
-
-
-def _brief(value: object, limit: int = 40) -> str:
-    """``repr`` of a user's value (non-printable characters escaped), cut to ``limit``."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    return names.get(type(value), type(value).__name__) + (f" {show(value)}" if _is_real(value) else "")

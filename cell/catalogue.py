@@ -6,6 +6,7 @@ reports all read the same tables. Sizes are real-world sizes in metres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 __all__ = [
@@ -35,6 +36,22 @@ class PartKind:
     hole: float
     symmetry: int
     description: str
+
+    @property
+    def half_diagonal(self) -> float:
+        """Half the diagonal of the ``length`` x ``width`` box (metres): how far apart two
+        parts' centres keep them clear of each other, with the other's."""
+        return 0.5 * math.hypot(self.length, self.width)
+
+    def yaw_error(self, yaw: float, true_yaw: float) -> float | None:
+        """The angle (radians, 0 to pi/symmetry) between two yaws of this kind, modulo its
+        rotational symmetry (a hex nut turned by 60 degrees is the same nut); None for a
+        round part (``symmetry`` 0), whose yaw means nothing."""
+        if self.symmetry <= 0:
+            return None
+        period = 2 * math.pi / self.symmetry
+        e = (yaw - true_yaw) % period
+        return min(e, period - e)
 
 
 @dataclass(frozen=True)

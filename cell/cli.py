@@ -6,7 +6,7 @@ dispatches, so a command's imports (MuJoCo, OpenCV, ...) load only when it runs.
 polite kill (SIGTERM: ``kill``, ``timeout``, a job scheduler) stop a command the same way,
 unwinding it so that its outputs stay whole or absent: one line, exit status 130 or 143.
 Every message that echoes
-a user's string goes through :func:`printable` (:func:`cell.config.escape`), so it cannot
+a user's string goes through :func:`cell.text.escape`, so it cannot
 carry terminal escapes, line breaks or undecodable bytes.
 """
 
@@ -19,10 +19,10 @@ import sys
 import threading
 from importlib.metadata import PackageNotFoundError, version
 
-from cell.config import escape as printable  # (one escaping rule for every message)
 from cell.errors import CellError, Terminated
+from cell.text import escape
 
-__all__ = ["COMMANDS", "main", "printable"]
+__all__ = ["COMMANDS", "main", "run"]
 
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("cell.jobs.run", "run the sort job: calibrate, detect, pick and sort, report, replay"),
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     name, rest = argv[0], argv[1:]
     if name not in COMMANDS:
-        print(f"cell: error: unknown command {printable(repr(name))}; valid: {', '.join(COMMANDS)}",
+        print(f"cell: error: unknown command {escape(repr(name))}; valid: {', '.join(COMMANDS)}",
               file=sys.stderr)
         return 2
     before = _catch_sigterm()
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cell {name}: terminated", file=sys.stderr)
         return 143
     except CellError as exc:
-        print(f"cell {name}: error: {printable(str(exc))}", file=sys.stderr)
+        print(f"cell {name}: error: {escape(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         if isinstance(getattr(exc, "by", None), Terminated):  # (a sweep's, inside a bench)

@@ -12,6 +12,7 @@ refuses, before any work is done, a path that cannot become a file.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import stat
@@ -22,12 +23,12 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from cell.config import escape
 from cell.errors import CellError
+from cell.text import escape, show
 
 __all__ = ["MAX_TOML_BYTES", "StagedFiles", "atomic_write_bytes", "atomic_write_text",
-           "check_output_file", "file_mode", "input_path", "read_input_bytes", "read_toml_file",
-           "signals_held"]
+           "check_output_file", "file_mode", "input_path", "read_input_bytes", "read_json_file",
+           "read_toml_file", "signals_held"]
 
 MAX_TOML_BYTES = 1 << 20  # a scenario or sweep file is a page of TOML; more is a wrong file
 
@@ -255,17 +256,25 @@ def _size(n: int) -> str:
     return f"{n >> 20} MiB" if n >= 1 << 20 and n % (1 << 20) == 0 else f"{n:,} bytes"
 
 
+def _read_text(path: Path, shown: str, *, kind: str, limit: int, error: type[CellError],
+               advice: str) -> str:
+    """The UTF-8 text of ``path`` (a leading byte-order mark dropped): ``read_input_bytes``'
+    errors, and one naming the first undecodable byte, ending in ``advice``."""
+    data = read_input_bytes(path, shown, kind=kind, limit=limit, error=error)
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{shown}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+                    f"{advice}") from None
+
+
 def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError]) -> dict:
     """The TOML table in ``path`` (UTF-8, a leading byte-order mark dropped), or ``error``
     naming ``shown`` (the path as the user wrote it, escaped) and ``kind`` (``scenario
     file``...) when it is missing, a folder, not a regular file, unreadable, over 1 MiB,
     not UTF-8 or not TOML."""
-    data = read_input_bytes(path, shown, kind=kind, limit=MAX_TOML_BYTES, error=error)
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise error(f"{shown}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
-                    f"save the {kind} as UTF-8") from None
+    text = _read_text(path, shown, kind=kind, limit=MAX_TOML_BYTES, error=error,
+                      advice=f"save the {kind} as UTF-8")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -274,3 +283,17 @@ def read_toml_file(path: Path, shown: str, *, kind: str, error: type[CellError])
         raise error(f"{shown}: not valid TOML: arrays or tables nested too deeply") from None
     except ValueError:  # tomllib refuses integers over Python's 4,300-digit conversion limit
         raise error(f"{shown}: not valid TOML: an integer of over 4,300 digits") from None
+
+
+def read_json_file(path: Path, shown: str, *, kind: str, limit: int, error: type[CellError]) -> object:
+    """The JSON value in ``path`` (UTF-8, a leading byte-order mark dropped), or ``error``
+    naming ``shown`` and ``kind`` (``camera file``...) when it is missing, a folder, not a
+    regular file, unreadable, over ``limit`` bytes, not UTF-8 or not JSON."""
+    text = _read_text(path, shown, kind=kind, limit=limit, error=error, advice="expected JSON")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"{shown}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})"
+                    ) from None
+    except (ValueError, RecursionError) as exc:  # a 5000-digit number, [[[[...]]]] nested too deep
+        raise error(f"{shown}: not valid JSON: {show(str(exc))}") from None

@@ -12,7 +12,7 @@ import math
 import sys
 from collections.abc import Callable
 
-from cell.config import escape
+from cell.text import escape
 
 __all__ = ["Parser", "float_in", "int_in"]
 

@@ -49,9 +49,9 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from cell.config import escape
 from cell.errors import JobError
 from cell.files import file_mode
+from cell.text import escape
 
 if TYPE_CHECKING:
     from cell.camera import CameraModel

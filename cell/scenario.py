@@ -28,11 +28,12 @@ from typing import Any
 
 from cell.calib.settings import CalibrationSettings
 from cell.catalogue import KINDS, LIGHTING_PRESETS, MATERIALS
-from cell.config import apply_override, build, check, override_source, setting, show
+from cell.config import apply_override, build, check, setting
 from cell.errors import CellError, ScenarioError
 from cell.files import input_path, read_toml_file
 from cell.jobs.settings import CaptureSettings, FaultSettings, SortSettings
 from cell.robot.settings import RobotSettings
+from cell.text import override_source, show
 from cell.vision.settings import VisionSettings
 
 __all__ = [

@@ -16,8 +16,8 @@ import importlib
 import math
 import sys
 
-from cell.config import escape
 from cell.options import float_in, int_in  # (re-exported: the benchmarks' option types)
+from cell.text import escape
 
 __all__ = ["BENCHMARKS", "fmt", "float_in", "int_in", "main"]
 

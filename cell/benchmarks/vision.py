@@ -29,7 +29,7 @@ import numpy as np
 
 from cell.benchmarks import fmt, int_in
 from cell.benchmarks.vision_scene import place_scene
-from cell.benchmarks.vision_score import STEPS, new_stats, score_frame, summarise
+from cell.benchmarks.vision_score import STEPS, Tally, score_frame, summarise
 from cell.calib.intrinsics import one_thread
 from cell.catalogue import LIGHTING_PRESETS
 from cell.errors import BenchError
@@ -75,7 +75,7 @@ def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
 
     detector = PartDetector(settings)
     presets = [p for p in LIGHTING_PRESETS if p in presets] if presets else list(LIGHTING_PRESETS)
-    stats = {p: new_stats() for p in presets}
+    stats = {p: Tally() for p in presets}
     for i in range(scenes):
         seed = seed_base + i
         sc = scenario_from_dict({"seed": seed, "parts": {"count": parts}})
@@ -96,16 +96,16 @@ def _run(scenes: int, settings: VisionSettings, seed_base: int, parts: int,
                 dets = detector.detect(frame.rgb, frame.camera)
                 t_detect = time.perf_counter() - t0
                 s = stats[preset]
-                s["steps"].append(detector.last_times)
-                s["latency"].append(t_detect)
-                s["render"].append(t_render)
-                s["per_part"].append(t_detect / max(len(np.unique(seg)) - 1, 1))
+                s.steps.append(detector.last_times)
+                s.latency.append(t_detect)
+                s.render.append(t_render)
+                s.per_part.append(t_detect / max(len(np.unique(seg)) - 1, 1))
                 score_frame(world, seg, dets, s)
                 frames.append((preset, frame))
             for preset, frame in frames:  # again, back to back: no render between them
                 t0 = time.perf_counter()
                 detector.detect(frame.rgb, frame.camera)
-                stats[preset]["again"].append(time.perf_counter() - t0)
+                stats[preset].again.append(time.perf_counter() - t0)
         finally:
             world.close()
     return summarise(stats, scenes, seed_base, parts)

@@ -10,26 +10,49 @@ that no detection matched is missed, unless it touches the image border (partial
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from cell.catalogue import KINDS
+from cell.sweep.scoring import part_at
 from cell.vision.detector import StepTimes
 
-__all__ = ["REQUIRED", "STEPS", "new_stats", "score_frame", "summarise"]
+__all__ = ["REQUIRED", "STEPS", "Tally", "score_frame", "summarise"]
 
 STEPS = tuple(f.name for f in fields(StepTimes))  # the detector's steps, as timed
 REQUIRED = {"material": 0.995, "kind": 0.99, "pos_p95_mm": 1.0, "yaw_p95_deg": 2.0,
             "latency_ms": 5.0, "latency_over_render": 0.5, "cold_s": 5.0}
 
 
-def new_stats() -> dict:
-    """One preset's empty tallies: counts, and lists of errors (m, rad) and times (s)."""
-    return {"n": 0, "material_ok": 0, "material_wrong": 0, "material_unknown": 0, "kind_ok": 0,
-            "false": 0, "missed": 0, "partial_ok": 0, "partial_wrong": 0, "touching_pairs": 0,
-            "touching_split": 0, "pos_err": [], "yaw_err": [], "latency": [], "again": [],
-            "render": [], "steps": [], "per_part": [], "material_errors": [], "kind_errors": []}
+@dataclass
+class Tally:
+    """One preset's running tallies: counts of parts (``n`` scored), of material and kind
+    outcomes, false and missed detections, partial parts told right or wrong and touching
+    pairs split; errors (``pos_err`` m, ``yaw_err`` rad); times (s: ``latency`` per frame,
+    ``again`` for a repeat, ``render``, ``per_part``) and the detector's ``steps``; the
+    kinds of mistakes (``material_errors``, ``kind_errors``: "truth->detected")."""
+
+    n: int = 0
+    material_ok: int = 0
+    material_wrong: int = 0
+    material_unknown: int = 0
+    kind_ok: int = 0
+    false: int = 0
+    missed: int = 0
+    partial_ok: int = 0
+    partial_wrong: int = 0
+    touching_pairs: int = 0
+    touching_split: int = 0
+    pos_err: list[float] = field(default_factory=list)
+    yaw_err: list[float] = field(default_factory=list)
+    latency: list[float] = field(default_factory=list)
+    again: list[float] = field(default_factory=list)
+    render: list[float] = field(default_factory=list)
+    steps: list[StepTimes] = field(default_factory=list)
+    per_part: list[float] = field(default_factory=list)
+    material_errors: list[str] = field(default_factory=list)
+    kind_errors: list[str] = field(default_factory=list)
 
 
 def _touching_pairs(seg: np.ndarray) -> set[tuple[int, int]]:
@@ -43,8 +66,8 @@ def _touching_pairs(seg: np.ndarray) -> set[tuple[int, int]]:
     return pairs
 
 
-def score_frame(world, frame_seg: np.ndarray, dets: list, stats: dict) -> None:
-    """Add one frame's detections ``dets`` to a preset's ``stats`` (:func:`new_stats`),
+def score_frame(world, frame_seg: np.ndarray, dets: list, stats: Tally) -> None:
+    """Add one frame's detections ``dets`` to a preset's ``stats`` (a :class:`Tally`),
     matched to the parts through the segmentation image ``frame_seg`` (int (H, W), part
     ids, 0 the background) and scored against ``world``'s ground truth."""
     seg = frame_seg
@@ -54,50 +77,44 @@ def score_frame(world, frame_seg: np.ndarray, dets: list, stats: dict) -> None:
     visible = {int(i) for i, c in zip(ids, counts, strict=True) if c >= 30}
     matched: dict[int, object] = {}
     for d in dets:
-        u, v = int(round(d.centroid[0])), int(round(d.centroid[1]))
-        r = 3
-        cand = np.zeros(0, np.int32)
-        while r <= 15 and cand.size == 0:  # washers and nuts have a hole at the centroid
-            win = seg[max(v - r, 0): v + r + 1, max(u - r, 0): u + r + 1]
-            cand = win[win > 0]
-            r += 4
-        pid = int(np.bincount(cand).argmax()) if cand.size else 0
+        pid = part_at(seg, d.centroid)
         if pid == 0 or pid in matched:
-            stats["false"] += 1
+            stats.false += 1
             continue
         matched[pid] = d
     for pid in visible:
         info = world.parts[pid - 1]
         if pid not in matched:
             if pid not in border:
-                stats["missed"] += 1
+                stats.missed += 1
             continue
         d = matched[pid]
         if pid in border or d.partial:
-            stats["partial_ok" if (pid in border) == d.partial else "partial_wrong"] += 1
+            if (pid in border) == d.partial:
+                stats.partial_ok += 1
+            else:
+                stats.partial_wrong += 1
             continue
-        stats["n"] += 1
-        stats["kind_ok"] += d.kind == info.kind
+        stats.n += 1
+        stats.kind_ok += d.kind == info.kind
         if d.material == "unknown":
-            stats["material_unknown"] += 1
+            stats.material_unknown += 1
         elif d.material == info.material:
-            stats["material_ok"] += 1
+            stats.material_ok += 1
         else:
-            stats["material_wrong"] += 1
-            stats["material_errors"].append(f"{info.finish}->{d.material}")
+            stats.material_wrong += 1
+            stats.material_errors.append(f"{info.finish}->{d.material}")
         if d.kind != info.kind:
-            stats["kind_errors"].append(f"{info.kind}->{d.kind}")
+            stats.kind_errors.append(f"{info.kind}->{d.kind}")
         pos, _ = world.part_pose(pid)
         if d.position is not None:
-            stats["pos_err"].append(math.hypot(d.position[0] - pos[0], d.position[1] - pos[1]))
-        sym = KINDS[info.kind].symmetry
-        if sym > 0 and d.kind == info.kind:
-            period = 2 * math.pi / sym
-            e = (d.yaw - world.part_yaw(pid)) % period
-            stats["yaw_err"].append(min(e, period - e))
+            stats.pos_err.append(math.hypot(d.position[0] - pos[0], d.position[1] - pos[1]))
+        e = KINDS[info.kind].yaw_error(d.yaw, world.part_yaw(pid)) if d.kind == info.kind else None
+        if e is not None:
+            stats.yaw_err.append(e)
     pairs = [p for p in _touching_pairs(seg) if p[0] not in border and p[1] not in border]
-    stats["touching_pairs"] += len(pairs)
-    stats["touching_split"] += sum(1 for a, b in pairs if a in matched and b in matched)
+    stats.touching_pairs += len(pairs)
+    stats.touching_split += sum(1 for a, b in pairs if a in matched and b in matched)
 
 
 def _pct(values, q: float, scale: float = 1.0) -> float | None:
@@ -105,42 +122,42 @@ def _pct(values, q: float, scale: float = 1.0) -> float | None:
     return float(np.percentile(values, q)) * scale if len(values) else None
 
 
-def summarise(stats: dict, scenes: int, seed_base: int, parts: int) -> dict:
+def summarise(stats: dict[str, Tally], scenes: int, seed_base: int, parts: int) -> dict:
     """The bench's report from each preset's ``stats``: accuracies, error percentiles
     (mm, degrees), counts and latencies (ms); a figure with no samples is None."""
     rows = {}
     for preset, s in stats.items():
-        n = max(s["n"], 1)
-        pos = np.array(s["pos_err"]) * 1e3
-        yaw = np.degrees(np.array(s["yaw_err"]))
-        lat = _pct(s["latency"], 50, 1e3)
-        ren = _pct(s["render"], 50, 1e3)
+        n = max(s.n, 1)
+        pos = np.array(s.pos_err) * 1e3
+        yaw = np.degrees(np.array(s.yaw_err))
+        lat = _pct(s.latency, 50, 1e3)
+        ren = _pct(s.render, 50, 1e3)
         rows[preset] = {
-            "parts": s["n"],
-            "material_accuracy": s["material_ok"] / n if s["n"] else None,
-            "material_wrong": s["material_wrong"],
-            "material_unknown": s["material_unknown"],
-            "kind_accuracy": s["kind_ok"] / n if s["n"] else None,
+            "parts": s.n,
+            "material_accuracy": s.material_ok / n if s.n else None,
+            "material_wrong": s.material_wrong,
+            "material_unknown": s.material_unknown,
+            "kind_accuracy": s.kind_ok / n if s.n else None,
             "position_p50_mm": _pct(pos, 50),
             "position_p95_mm": _pct(pos, 95),
             "yaw_p95_deg": _pct(yaw, 95),
-            "false": s["false"],
-            "missed": s["missed"],
-            "recall": s["n"] / max(s["n"] + s["missed"], 1),
-            "partial_ok": s["partial_ok"],
-            "partial_wrong": s["partial_wrong"],
-            "touching_pairs": s["touching_pairs"],
-            "touching_split": s["touching_split"],
+            "false": s.false,
+            "missed": s.missed,
+            "recall": s.n / max(s.n + s.missed, 1),
+            "partial_ok": s.partial_ok,
+            "partial_wrong": s.partial_wrong,
+            "touching_pairs": s.touching_pairs,
+            "touching_split": s.touching_split,
             "latency_ms": lat,
-            "latency_p95_ms": _pct(s["latency"], 95, 1e3),
-            "latency_per_part_ms": _pct(s["per_part"], 50, 1e3),
-            "repeat_latency_ms": _pct(s.get("again", []), 50, 1e3),
+            "latency_p95_ms": _pct(s.latency, 95, 1e3),
+            "latency_per_part_ms": _pct(s.per_part, 50, 1e3),
+            "repeat_latency_ms": _pct(s.again, 50, 1e3),
             "render_ms": ren,
             "latency_over_render": lat / ren if lat is not None and ren else None,
-            "step_ms": {name: _pct([getattr(t, name) for t in s.get("steps", [])], 50, 1e3)
+            "step_ms": {name: _pct([getattr(t, name) for t in s.steps], 50, 1e3)
                         for name in STEPS},
-            "material_errors": sorted(set(s["material_errors"]))[:10],
-            "kind_errors": sorted(set(s["kind_errors"]))[:10],
+            "material_errors": sorted(set(s.material_errors))[:10],
+            "kind_errors": sorted(set(s.kind_errors))[:10],
         }
     return {"scenes_per_preset": scenes, "parts_per_scene": parts,
             "seed_base": seed_base, "required": REQUIRED, "presets": rows}

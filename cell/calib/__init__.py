@@ -51,6 +51,7 @@ _WHERE = {
     "OverheadCalibration": "overhead",
     "calibrate_overhead": "overhead",
     "solve_overhead": "overhead",
+    "CalibrationSolution": "wrist",
     "WristCalibration": "wrist",
     "calibrate_wrist": "wrist",
     "solve_wrist": "wrist",

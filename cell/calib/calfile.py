@@ -35,6 +35,7 @@ import numpy as np
 from cell.camera import CameraModel, check_camera_fields, check_pose, read_json_file
 from cell.errors import CalibrationError
 from cell.files import StagedFiles
+from cell.text import show
 
 __all__ = ["SCHEMA", "VERSION", "CalibrationFile", "CameraCalibration",
            "calibration_from_dict", "load_calibration", "stage_calibration", "write_calibration"]
@@ -84,7 +85,7 @@ class CameraCalibration:
             _text(f"camera {self.name!r}: '{key}'", getattr(self, key))
         if not isinstance(self.seed, int | np.integer) or isinstance(self.seed, bool) or self.seed < 0:
             raise CalibrationError(f"camera {self.name!r}: 'seed' must be an integer >= 0, got "
-                                   f"{_brief(self.seed)}")
+                                   f"{show(self.seed)}")
         object.__setattr__(self, "seed", int(self.seed))
 
     def to_dict(self) -> dict:
@@ -146,15 +147,10 @@ class CalibrationFile:
         return {"schema": SCHEMA, "version": VERSION, "cameras": [c.to_dict() for c in self.cameras]}
 
 
-def _brief(value: object, limit: int = 40) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
 def _text(what: str, value: object, *, limit: int = _MAX_TEXT) -> None:
     if not isinstance(value, str) or not value or len(value) > limit or not value.isprintable():
         raise CalibrationError(f"{what} must be printable text of 1 to {limit} characters, got "
-                               f"{_brief(value)}")
+                               f"{show(value)}")
 
 
 def _rms(name: str, value: object) -> float:
@@ -165,7 +161,7 @@ def _rms(name: str, value: object) -> float:
         number = float("inf")
     if not (np.isfinite(number) and number >= 0):
         raise CalibrationError(f"camera {name!r}: 'rms' must be a finite number >= 0 (px), got "
-                               f"{_brief(value)}")
+                               f"{show(value)}")
     return number
 
 
@@ -184,7 +180,7 @@ def _camera_from_dict(data: object, index: int) -> CameraCalibration:
                                "the flange or fixed")
     unknown = sorted(str(k) for k in data if k not in _KEYS + POSE_KEYS)
     if unknown:
-        raise CalibrationError(f"{label}: unknown key {_brief(unknown[0])}; valid: "
+        raise CalibrationError(f"{label}: unknown key {show(unknown[0])}; valid: "
                                f"{', '.join(_KEYS + POSE_KEYS)}")
     try:
         return CameraCalibration(
@@ -206,15 +202,15 @@ def calibration_from_dict(data: object, *, where: str = "calibration") -> Calibr
             if key not in data:
                 raise CalibrationError(f"missing key '{key}'")
         if data["schema"] != SCHEMA:
-            raise CalibrationError(f"'schema' must be {SCHEMA!r}, got {_brief(data['schema'])}: not a "
+            raise CalibrationError(f"'schema' must be {SCHEMA!r}, got {show(data['schema'])}: not a "
                                    "calibration file")
         version = data["version"]
         if not isinstance(version, int) or isinstance(version, bool) or version != VERSION:
-            raise CalibrationError(f"unsupported 'version' {_brief(version)}: this cell reads version "
+            raise CalibrationError(f"unsupported 'version' {show(version)}: this cell reads version "
                                    f"{VERSION}")
         unknown = sorted(str(k) for k in data if k not in ("schema", "version", "cameras"))
         if unknown:
-            raise CalibrationError(f"unknown key {_brief(unknown[0])}; valid: schema, version, cameras")
+            raise CalibrationError(f"unknown key {show(unknown[0])}; valid: schema, version, cameras")
         cams = data["cameras"]
         if not isinstance(cams, list):
             raise CalibrationError(f"'cameras' must be a list, got {type(cams).__name__}")

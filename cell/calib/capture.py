@@ -18,7 +18,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import mink
 import mujoco
 import numpy as np
 
@@ -34,7 +33,6 @@ __all__ = [
     "Capture", "CapturedView", "Rig", "capture_views", "move_via_hub", "reach_view", "solve_flange_pose",
 ]
 
-_IK_DT = 0.2  # s: the step of one differential-IK iteration (as ArmIK's)
 _IK_ITERATIONS = 300
 _CLEARANCE = 0.01  # m: least distance of the arm to the furniture at a view
 _PATH_SAMPLES = 12
@@ -102,21 +100,8 @@ def solve_flange_pose(ik: ArmIK, T_base_tcp: np.ndarray, seed: np.ndarray) -> np
     """Joint angles (6,) rad putting the TCP at ``T_base_tcp`` (4x4, m, any orientation),
     by ``ArmIK``'s tasks and limits from ``seed``; ``IKError`` when it does not converge to
     ``ik_tolerance`` (m, and 10x that in rad) within 300 iterations."""
-    cfg = ik.configuration
-    cfg.update(np.asarray(seed, dtype=np.float64))
-    ik.task.set_target(mink.SE3.from_matrix(T_base_tcp))
-    ik.posture.set_target(cfg.q)
-    tol = ik.settings.ik_tolerance
-    for _ in range(_IK_ITERATIONS):
-        err = ik.task.compute_error(cfg)
-        if np.linalg.norm(err[:3]) <= tol and np.linalg.norm(err[3:]) <= 10 * tol:
-            return cfg.q.copy()
-        try:
-            v = mink.solve_ik(cfg, [ik.task, ik.posture], _IK_DT, "daqp", limits=ik.limits)
-        except mink.NoSolutionFound as exc:
-            raise IKError(f"view pose: the IK's QP has no solution ({exc})") from None
-        cfg.integrate_inplace(v, _IK_DT)
-    raise IKError(f"view pose at {np.round(T_base_tcp[:3, 3], 3).tolist()} m: no convergence")
+    return ik.solve_pose(T_base_tcp, seed, tolerance=ik.settings.ik_tolerance,
+                         iterations=_IK_ITERATIONS, what="view pose")
 
 
 def _survey_pose(rig: Rig, settings: object) -> np.ndarray:

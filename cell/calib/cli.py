@@ -23,11 +23,11 @@ from pathlib import Path
 from cell.calib.calfile import stage_calibration
 from cell.calib.job import CAMERAS, run_calibration
 from cell.calib.report import format_camera
-from cell.cli import printable
 from cell.errors import CalibrationError
 from cell.files import StagedFiles, check_output_file
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario, scenario_from_dict
+from cell.text import escape
 
 __all__ = ["main"]
 
@@ -60,8 +60,8 @@ def _check_target(arg: str, option: str) -> Path:
 def _check_apart(out: Path, report: Path) -> None:
     """``--out`` and ``--report`` must be two files (the folder entries a rename replaces)."""
     if out.parent.resolve() / out.name == report.parent.resolve() / report.name:
-        raise CalibrationError(f"--out {printable(repr(str(out)))} and --report "
-                               f"{printable(repr(str(report)))} are the same file; name two files")
+        raise CalibrationError(f"--out {escape(repr(str(out)))} and --report "
+                               f"{escape(repr(str(report)))} are the same file; name two files")
 
 
 def _progress(stream) -> object:
@@ -99,10 +99,10 @@ def main(argv: list[str]) -> int:
             files.add(report_path, report_text.encode("utf-8"), kind="report file",
                       error=CalibrationError)
         files.commit(error=CalibrationError)
-    print(f"scenario {printable(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
+    print(f"scenario {escape(scenario.name)!s}, seed {scenario.seed}, {scenario.calibration.poses} poses, "
           f"joint noise {scenario.calibration.joint_noise_deg:g} deg")
     for k, (name, camera_report) in enumerate(run.report["cameras"].items()):
         print(("\n" if k else "") + format_camera(name, camera_report))
-    print(f"\nwrote {printable(str(out))}" + (f" and {printable(str(report_path))}" if report_path else "")
+    print(f"\nwrote {escape(str(out))}" + (f" and {escape(str(report_path))}" if report_path else "")
           + f" in {run.wall_s:.1f} s")
     return 0

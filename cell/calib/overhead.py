@@ -41,7 +41,7 @@ from cell.calib.eyetohand import EyeToHandEstimate, compare_eye_to_hand
 from cell.calib.handeye import HandEyeData
 from cell.calib.intrinsics import Intrinsics, calibrate_intrinsics
 from cell.calib.refine import EyeToHandRefinement, refine_eye_to_hand
-from cell.calib.wrist import keep_refinement
+from cell.calib.wrist import CalibrationSolution, keep_refinement
 from cell.errors import CalibrationError, IKError, MotionError
 
 __all__ = ["CAMERA", "OverheadCalibration", "calibrate_overhead", "capture_overhead", "solve_overhead"]
@@ -119,11 +119,12 @@ def capture_overhead(rig: Rig, settings: object, *, lens: object,
 
 
 def solve_overhead(corners: np.ndarray, T_base_flange: np.ndarray, board: Board, *,
-                   image_size: tuple[int, int], terms: int, free_intrinsics: bool) -> tuple:
+                   image_size: tuple[int, int], terms: int, free_intrinsics: bool
+                   ) -> CalibrationSolution:
     """The array part of an overhead calibration: ``corners`` (N, M, 2) px and the flange
     poses ``T_base_flange`` (N, 4, 4) m of N views of ``board`` on the flange, image
     (width, height) px, ``terms`` free distortion coefficients, whether the refinement frees
-    the intrinsics. Returns (intrinsics, eye-to-hand estimates, chosen method, refinement)."""
+    the intrinsics; the eye-to-hand estimates are ``T_base_camera``'s."""
     intrinsics = calibrate_intrinsics(list(corners), board, image_size, terms=terms)
     data = HandEyeData(board.object_points(), np.asarray(corners, float), np.asarray(T_base_flange, float),
                        intrinsics.T_camera_board, intrinsics.K, intrinsics.dist)
@@ -131,7 +132,7 @@ def solve_overhead(corners: np.ndarray, T_base_flange: np.ndarray, board: Board,
     start = next(e for e in estimates if e.method == chosen)
     refinement = refine_eye_to_hand(data, start.T_base_camera, T_flange_board=start.T_flange_board,
                                     free_intrinsics=free_intrinsics, terms=terms)
-    return intrinsics, estimates, chosen, refinement
+    return CalibrationSolution(intrinsics, tuple(estimates), chosen, refinement)
 
 
 def calibrate_overhead(rig: Rig, settings: object, *, lens: object, scenario: str, seed: int,
@@ -153,10 +154,12 @@ def calibrate_overhead(rig: Rig, settings: object, *, lens: object, scenario: st
     height, width = capture.views[0].image.shape[:2]
     corners = np.stack([detections[i].corners for i in used])
     flanges = np.stack([capture.views[i].T_base_flange for i in used])
-    intrinsics, estimates, chosen, refinement = solve_overhead(
-        corners, flanges, board, image_size=(width, height), terms=settings.overhead_distortion_terms,
-        free_intrinsics=settings.refine_intrinsics)
-    best = next(e for e in estimates if e.method == chosen)
+    solution = solve_overhead(corners, flanges, board, image_size=(width, height),
+                              terms=settings.overhead_distortion_terms,
+                              free_intrinsics=settings.refine_intrinsics)
+    intrinsics, estimates, chosen, refinement = (solution.intrinsics, solution.estimates,
+                                                 solution.chosen, solution.refinement)
+    best = solution.best
     kept = "refined" if keep_refinement(intrinsics, best, refinement) else chosen
     if kept == "refined":  # the RMS of the intrinsics held: the refinement's when it freed them
         K, dist, pose = refinement.K, refinement.dist, refinement.T_base_camera

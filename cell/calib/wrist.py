@@ -26,14 +26,33 @@ import numpy as np
 from cell.calib.board import Board, BoardView, detect_board
 from cell.calib.calfile import CameraCalibration
 from cell.calib.capture import Capture, Progress, Rig, capture_views
+from cell.calib.eyetohand import EyeToHandEstimate
 from cell.calib.handeye import HandEyeData, HandEyeEstimate, compare_hand_eye
 from cell.calib.intrinsics import Intrinsics, calibrate_intrinsics
-from cell.calib.refine import Refinement, refine_hand_eye
+from cell.calib.refine import EyeToHandRefinement, Refinement, refine_hand_eye
 from cell.errors import CalibrationError
 
-__all__ = ["MODEL_RATIO", "WristCalibration", "calibrate_wrist", "keep_refinement", "solve_wrist"]
+__all__ = ["MODEL_RATIO", "CalibrationSolution", "WristCalibration", "calibrate_wrist", "keep_refinement",
+           "solve_wrist"]
 
 MODEL_RATIO = 2.0  # largest chain RMS / intrinsic RMS at which the robot poses count as exact
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationSolution:
+    """The array part of a calibration (:func:`solve_wrist`, ``solve_overhead``): the
+    ``intrinsics``, every closed-form ``estimates`` of the camera's mount (hand-eye or
+    eye-to-hand), the ``chosen`` method and the ``refinement`` started from its estimate."""
+
+    intrinsics: Intrinsics
+    estimates: tuple[HandEyeEstimate, ...] | tuple[EyeToHandEstimate, ...]
+    chosen: str
+    refinement: Refinement | EyeToHandRefinement
+
+    @property
+    def best(self) -> HandEyeEstimate | EyeToHandEstimate:
+        """The chosen closed-form estimate."""
+        return next(e for e in self.estimates if e.method == self.chosen)
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,18 +79,17 @@ class WristCalibration:
 
 
 def solve_wrist(corners: np.ndarray, T_base_flange: np.ndarray, board: Board, *,
-                image_size: tuple[int, int], terms: int) -> tuple:
+                image_size: tuple[int, int], terms: int) -> CalibrationSolution:
     """The array part of a wrist calibration: ``corners`` (N, M, 2) px and the flange poses
     ``T_base_flange`` (N, 4, 4) m of N views of ``board``, image (width, height) px,
-    ``terms`` free distortion coefficients. Returns (intrinsics, hand-eye estimates,
-    chosen method, refinement)."""
+    ``terms`` free distortion coefficients; the hand-eye estimates are ``T_flange_camera``'s."""
     intrinsics = calibrate_intrinsics(list(corners), board, image_size, terms=terms)
     data = HandEyeData(board.object_points(), np.asarray(corners, float), np.asarray(T_base_flange, float),
                        intrinsics.T_camera_board, intrinsics.K, intrinsics.dist)
     estimates, chosen = compare_hand_eye(data)
     start = next(e for e in estimates if e.method == chosen)
     refinement = refine_hand_eye(data, start.T_flange_camera, T_base_board=start.T_base_board)
-    return intrinsics, estimates, chosen, refinement
+    return CalibrationSolution(intrinsics, tuple(estimates), chosen, refinement)
 
 
 def keep_refinement(intrinsics: Intrinsics, best: HandEyeEstimate, refinement: Refinement) -> bool:
@@ -97,9 +115,11 @@ def calibrate_wrist(rig: Rig, settings: object, *, scenario: str, seed: int,
     height, width = capture.views[0].image.shape[:2]
     corners = np.stack([detections[i].corners for i in used])
     flanges = np.stack([capture.views[i].T_base_flange for i in used])
-    intrinsics, estimates, chosen, refinement = solve_wrist(
-        corners, flanges, board, image_size=(width, height), terms=settings.distortion_terms)
-    best = next(e for e in estimates if e.method == chosen)
+    solution = solve_wrist(corners, flanges, board, image_size=(width, height),
+                           terms=settings.distortion_terms)
+    intrinsics, estimates, chosen, refinement = (solution.intrinsics, solution.estimates,
+                                                 solution.chosen, solution.refinement)
+    best = solution.best
     kept = "refined" if keep_refinement(intrinsics, best, refinement) else chosen
     pose = refinement.T_flange_camera if kept == "refined" else best.T_flange_camera
     camera = CameraCalibration(

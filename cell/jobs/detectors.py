@@ -21,14 +21,13 @@ import importlib
 import inspect
 import math
 import numbers
-import reprlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from cell.catalogue import KINDS
-from cell.config import escape
 from cell.errors import CellError, JobError
+from cell.text import escape, show
 from cell.vision.detector import Detection
 from cell.vision.settings import VisionSettings
 
@@ -132,7 +131,7 @@ def _checked(d: Detection, image_size: tuple[int, int]) -> Detection:
     width, height = image_size
     u, v = _pair(d.centroid, "centroid")
     if not (0 <= u <= width and 0 <= v <= height):
-        raise ValueError(f"centroid {_brief(d.centroid)} lies outside the {width}x{height} image")
+        raise ValueError(f"centroid {show(d.centroid)} lies outside the {width}x{height} image")
     return Detection(
         id=_integer(d.id, "id"), material=_name(d.material, "material", _MATERIALS),
         material_confidence=_number(d.material_confidence, "material_confidence", 0.0, 1.0),
@@ -144,10 +143,6 @@ def _checked(d: Detection, image_size: tuple[int, int]) -> Detection:
         defect=_flag(d.defect, "defect"))
 
 
-def _brief(value: object) -> str:
-    return escape(reprlib.repr(value))
-
-
 def _number(value: object, what: str, lo: float = -math.inf, hi: float = math.inf) -> float:
     """``value`` as a float when it is a finite real number in ``lo..hi``."""
     if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
@@ -156,7 +151,7 @@ def _number(value: object, what: str, lo: float = -math.inf, hi: float = math.in
             return x
     span = f" in {lo:g}..{hi:g}" if math.isfinite(lo) and math.isfinite(hi) else (
         f" >= {lo:g}" if math.isfinite(lo) else "")
-    raise ValueError(f"{what} must be a finite number{span}, got {_brief(value)}")
+    raise ValueError(f"{what} must be a finite number{span}, got {show(value)}")
 
 
 def _pair(value: object, what: str, lo: float = -math.inf) -> tuple[float, float]:
@@ -167,22 +162,22 @@ def _pair(value: object, what: str, lo: float = -math.inf) -> tuple[float, float
         except ValueError:
             pass
     floor = f", each >= {lo:g}" if math.isfinite(lo) else ""
-    raise ValueError(f"{what} must be two finite numbers{floor}, got {_brief(value)}")
+    raise ValueError(f"{what} must be two finite numbers{floor}, got {show(value)}")
 
 
 def _integer(value: object, what: str) -> int:
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)) and value >= 0:
         return int(value)
-    raise ValueError(f"{what} must be a whole number >= 0, got {_brief(value)}")
+    raise ValueError(f"{what} must be a whole number >= 0, got {show(value)}")
 
 
 def _name(value: object, what: str, choices: tuple[str, ...]) -> str:
     if isinstance(value, str) and value in choices:
         return choices[choices.index(value)]
-    raise ValueError(f"{what} must be one of {', '.join(choices)}, got {_brief(value)}")
+    raise ValueError(f"{what} must be one of {', '.join(choices)}, got {show(value)}")
 
 
 def _flag(value: object, what: str) -> bool:
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
-    raise ValueError(f"{what} must be True or False, got {_brief(value)}")
+    raise ValueError(f"{what} must be True or False, got {show(value)}")

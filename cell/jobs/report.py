@@ -14,10 +14,10 @@ import cv2
 import numpy as np
 
 from cell.benchmarks import fmt
-from cell.config import escape
 from cell.errors import JobError
 from cell.jobs.score import COMPLETED, OUTCOMES
 from cell.sim.layout import BELT_TOP
+from cell.text import escape
 
 __all__ = ["draw_detections", "encode_png", "summary_table"]
 
@@ -65,6 +65,7 @@ def draw_detections(image: np.ndarray, detections: list, *, camera: object,
     size turned into pixels at its centroid, along its yaw), centre and label drawn;
     ``camera`` (the ``CameraModel``, looking down on the belt) gives the scale, ``bins``
     (one per detection) colours a rejected one orange."""
+    _check_rgb("draw_detections", image)
     out = np.ascontiguousarray(image.copy())
     h = out.shape[0]
     px = camera.K[0, 0] / max(1e-3, camera.T_world_camera[2, 3] - BELT_TOP)  # px per m
@@ -88,7 +89,17 @@ def draw_detections(image: np.ndarray, detections: list, *, camera: object,
 
 def encode_png(image: np.ndarray) -> bytes:
     """PNG bytes of a uint8 RGB (H, W, 3) image."""
+    _check_rgb("encode_png", image)
     ok, buf = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
     if not ok:
         raise JobError("detections.png: OpenCV could not encode the image as PNG")
     return buf.tobytes()
+
+
+def _check_rgb(where: str, image: object) -> None:
+    """A JobError naming ``where`` unless ``image`` is a uint8 RGB array (H, W, 3)."""
+    if (not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3
+            or image.shape[2] != 3 or 0 in image.shape):
+        got = (f"{image.dtype} {image.shape}" if isinstance(image, np.ndarray)
+               else type(image).__name__)
+        raise JobError(f"{where}: argument 'image': expected a uint8 RGB array (H, W, 3), got {got}")

@@ -25,11 +25,11 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from cell.cli import printable
 from cell.errors import JobError
 from cell.files import StagedFiles, check_output_file
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario
+from cell.text import escape
 
 __all__ = ["main"]
 
@@ -74,7 +74,7 @@ def _rerun() -> str:
     if shutil.which("rerun"):
         return "rerun"
     beside = Path(sys.executable).parent / "rerun"
-    return printable(str(beside)) if beside.exists() else "rerun"
+    return escape(str(beside)) if beside.exists() else "rerun"
 
 
 @dataclass(frozen=True)
@@ -121,8 +121,8 @@ def _outputs(args: argparse.Namespace) -> _Outputs:
         from cell.replay import rerun_disabled  # (rerun loads only when a replay is asked for)
 
         if rerun_disabled():
-            raise JobError(f"--replay {printable(repr(args.replay))}: rerun logging is disabled "
-                           f"(RERUN={printable(os.environ['RERUN'])} in the environment): "
+            raise JobError(f"--replay {escape(repr(args.replay))}: rerun logging is disabled "
+                           f"(RERUN={escape(os.environ['RERUN'])} in the environment): "
                            "unset it to write a replay")
     calibration = image = None
     if report is not None and args.calibration is None:
@@ -134,7 +134,7 @@ def _outputs(args: argparse.Namespace) -> _Outputs:
     for out in outputs.each():
         if _entry(out.path) in seen:
             raise JobError(f"{seen[_entry(out.path)]} and {out.what} are the same file "
-                           f"{printable(repr(str(out.path)))}; name different files")
+                           f"{escape(repr(str(out.path)))}; name different files")
         seen[_entry(out.path)] = out.what
     return outputs
 
@@ -162,7 +162,7 @@ def main(argv: list[str]) -> int:
         from cell.calib.calfile import load_calibration
 
         calibration = load_calibration(args.calibration)  # checked before the long work
-        _check_camera(calibration, scenario, f"--calibration {printable(repr(args.calibration))}")
+        _check_camera(calibration, scenario, f"--calibration {escape(repr(args.calibration))}")
     from cell.jobs.sort import run_sort
 
     progress = _progress(sys.stderr, "sort", "parts")
@@ -181,13 +181,13 @@ def main(argv: list[str]) -> int:
 
     print(summary_table(run.report))
     if args.calibration is None:
-        again = (f"; pass --calibration {printable(str(outputs.calibration.path))} to reuse it"
+        again = (f"; pass --calibration {escape(str(outputs.calibration.path))} to reuse it"
                  if outputs.calibration else "")
         print(f"\nno --calibration given: the overhead camera was calibrated first{again}")
     if written:
-        print("\nwrote " + ", ".join(printable(str(p)) for p in written))
+        print("\nwrote " + ", ".join(escape(str(p)) for p in written))
     if outputs.replay is not None:
-        print(f"open the replay with: {_rerun()} {printable(str(outputs.replay.path))}")
+        print(f"open the replay with: {_rerun()} {escape(str(outputs.replay.path))}")
     return 0
 
 

@@ -116,14 +116,10 @@ def _outcome(place: str, material: str) -> str:
 
 
 def _yaw_error(det: object, kind: str, true_yaw: float) -> float | None:
-    """The yaw error (deg) modulo the true kind's symmetry; None for a round part or an
-    unknown kind."""
-    symmetry = KINDS[kind].symmetry
-    if symmetry == 0 or det.kind != kind:
-        return None
-    period = 2 * math.pi / symmetry
-    err = (det.yaw - true_yaw + period / 2) % period - period / 2
-    return abs(math.degrees(err))
+    """The yaw error (deg) modulo the true kind's symmetry; None for a round part or a
+    detection of another kind."""
+    err = KINDS[kind].yaw_error(det.yaw, true_yaw) if det.kind == kind else None
+    return None if err is None else math.degrees(err)
 
 
 def _quantile(values: list[float], q: float) -> float | None:

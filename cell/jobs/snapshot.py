@@ -22,10 +22,6 @@ import argparse
 import dataclasses
 import json
 import math
-import os
-import secrets
-import shutil
-import stat
 import sys
 import time
 from collections.abc import Callable
@@ -34,20 +30,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from cell.cli import printable
-from cell.errors import JobError, SimError
-from cell.files import signals_held
+from cell.errors import SimError
+from cell.jobs.snapshot_folder import OUTPUTS, OutputSet, check_out
 from cell.options import Parser, int_in
 from cell.scenario import Scenario, load_scenario
 from cell.sim.world import World
+from cell.text import escape
 
 __all__ = ["MAX_TIME", "OUTPUTS", "main", "truth_rows"]
 
 MAX_TIME = 3600.0
 """Largest ``--time`` (simulated seconds): one simulated hour, a few minutes of wall time."""
-
-OUTPUTS = ("rgb.png", "depth.npy", "seg.npy", "camera.json", "truth.json", "cell.xml")
-"""Every file a snapshot may write: the only entries an existing ``--out`` folder may hold."""
 
 _SEED = {f.name: f for f in dataclasses.fields(Scenario)}["seed"].metadata
 
@@ -101,165 +94,6 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-# --- the output folder ------------------------------------------------------------------
-
-def _reason(exc: OSError) -> str:
-    return exc.strerror or str(exc)
-
-
-def _check_out(arg: str) -> Path:
-    """The folder ``--out`` names, resolved; a ``JobError`` if it cannot take a snapshot.
-
-    Checked before the run so a bad path fails at once: not empty, not the current folder
-    (or one above it), an existing entry must be a folder holding only snapshot outputs,
-    and the nearest existing ancestor must be a folder that can be written.
-    """
-    shown = f"--out {arg!r}"
-    if not arg:
-        raise JobError(f"{shown}: empty path; name the output folder")
-    try:
-        cwd = Path.cwd()
-        target = Path(os.path.abspath(arg))
-        resolved = target.resolve()  # follow links: the folder a link points to is the one replaced
-        for path in (target, resolved):
-            if path == cwd or path in cwd.parents:
-                raise JobError(f"{shown}: is the current folder or holds it; name a folder inside it")
-        target = probe = resolved
-        while True:
-            try:
-                st = probe.stat()
-                break
-            except FileNotFoundError:
-                probe = probe.parent
-    except OSError as exc:  # a name too long, a loop of links, no permission to look
-        raise JobError(f"{shown}: cannot be used: {_reason(exc)}") from None
-    except (RuntimeError, ValueError) as exc:  # a loop of links (Python < 3.13), a NUL character
-        raise JobError(f"{shown}: cannot be used: {exc}") from None
-    if not stat.S_ISDIR(st.st_mode):
-        if probe == target:
-            raise JobError(f"{shown}: exists and is not a folder")
-        raise JobError(f"{shown}: cannot be created: {str(probe)!r} is not a folder")
-    if probe == target:
-        if target == Path(target.anchor):
-            raise JobError(f"{shown}: is a file system root; name a folder inside it")
-        try:
-            foreign = sorted(name for name in os.listdir(target) if name not in OUTPUTS)
-        except OSError as exc:
-            raise JobError(f"{shown}: cannot be read: {_reason(exc)}") from None
-        if foreign:
-            listed = ", ".join(repr(n) for n in foreign[:3]) + (", ..." if len(foreign) > 3 else "")
-            raise JobError(f"{shown}: holds entries that are not snapshot outputs ({listed}); "
-                            "name a new folder, or one written only by cell snapshot")
-        need = [target, target.parent]
-    else:
-        need = [probe]
-    for folder in need:
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise JobError(f"{shown}: cannot be written: no write permission in {str(folder)!r}")
-    return target
-
-
-class _OutputSet:
-    """An output folder staged beside ``target`` and swapped into place on :meth:`commit`."""
-
-    def __init__(self, arg: str, target: Path) -> None:
-        self.arg, self.target = arg, target
-        self.created: list[Path] = []  # parent folders this run made, outermost first
-        self.staging: Path | None = None
-        self.written: list[str] = []
-        try:
-            missing = []
-            parent = target.parent
-            while not parent.exists():
-                missing.append(parent)
-                parent = parent.parent
-            for folder in reversed(missing):
-                folder.mkdir()
-                self.created.append(folder)
-            self.staging = self._new_folder("tmp")
-        except OSError as exc:
-            self.discard()
-            raise JobError(f"--out {arg!r}: cannot be created: {_reason(exc)}") from None
-
-    def _new_folder(self, tag: str) -> Path:
-        """A new empty folder ``<target name>.<tag>-XXXXXXXX`` beside the target."""
-        stem = self.target.name[:200]
-        while True:
-            folder = self.target.parent / f"{stem}.{tag}-{secrets.token_hex(4)}"
-            try:
-                folder.mkdir()
-                return folder
-            except FileExistsError:
-                continue
-
-    def write(self, name: str, writer: Callable[[Path], object]) -> None:
-        """Run ``writer(path)`` for ``name`` in the staging folder; any failure is a ``JobError``.
-
-        A writer that returns ``False`` (as an image encoder does) has failed.
-        """
-        shown = repr(str(self.target / name))
-        try:
-            ok = writer(self.staging / name)
-        except OSError as exc:
-            raise JobError(f"cannot write {shown}: {_reason(exc)}") from None
-        except ValueError as exc:  # json.dumps(allow_nan=False) and friends
-            raise JobError(f"cannot write {shown}: {exc}") from None
-        except cv2.error as exc:
-            raise JobError(f"cannot write {shown}: OpenCV: {str(exc).strip().splitlines()[-1]}") from None
-        if ok is False:
-            raise JobError(f"cannot write {shown}: the image encoder failed")
-        self.written.append(name)
-
-    def commit(self) -> None:
-        """Swap the staged set into place; the earlier folder, if any, is removed after.
-        Ctrl-C and SIGTERM are held off meanwhile (:func:`cell.files.signals_held`): the
-        swap happens whole, the earlier folder gone, before one takes effect."""
-        with signals_held():
-            self._swap()
-
-    def _swap(self) -> None:
-        """:meth:`commit`, its signals held."""
-        target, aside = self.target, None
-        _check_out(self.arg)  # again: the folder may have changed while the world ran
-        try:
-            if os.path.lexists(target):
-                aside = self._new_folder("old")
-                os.rename(target, aside)  # replaces the empty placeholder atomically
-            try:
-                os.rename(self.staging, target)
-            except OSError as exc:
-                if aside is not None:
-                    try:
-                        os.rename(aside, target)
-                    except OSError:
-                        raise JobError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}; "
-                                        f"the earlier output is now in {str(aside)!r}") from None
-                    aside = None
-                raise
-        except OSError as exc:
-            if aside is not None and aside.exists() and not any(aside.iterdir()):
-                aside.rmdir()
-            raise JobError(f"--out {self.arg!r}: cannot be replaced: {_reason(exc)}") from None
-        self.staging, self.created = None, []
-        if aside is not None:
-            shutil.rmtree(aside, ignore_errors=True)
-            if aside.exists():
-                print(f"cell snapshot: warning: could not remove the earlier output "
-                      f"{printable(repr(str(aside)))}", file=sys.stderr)
-
-    def discard(self) -> None:
-        """Remove the staging folder and the parents this run created (the run failed)."""
-        if self.staging is not None:
-            shutil.rmtree(self.staging, ignore_errors=True)
-            self.staging = None
-        for folder in reversed(self.created):
-            try:
-                folder.rmdir()
-            except OSError:
-                break
-        self.created = []
-
-
 def _write_json(path: Path, data: object) -> None:
     try:
         text = json.dumps(data, indent=2, allow_nan=False) + "\n"
@@ -305,9 +139,9 @@ def _run_for(world: World, seconds: float) -> None:
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     scenario = load_scenario(args.scenario, overrides=args.overrides, seed=args.seed)
-    target = _check_out(args.out)
+    target = check_out(args.out)
     t0 = time.perf_counter()
-    outputs = _OutputSet(args.out, target)
+    outputs = OutputSet(args.out, target)
     try:
         world = World.build(scenario)
         try:
@@ -339,10 +173,10 @@ def main(argv: list[str]) -> int:
     except BaseException:
         outputs.discard()
         raise
-    print(f"snapshot of {printable(repr(scenario.name))} (seed {scenario.seed}, lighting "
+    print(f"snapshot of {escape(repr(scenario.name))} (seed {scenario.seed}, lighting "
           f"{scenario.lighting}, camera {args.camera}): {where}")
     print(f"  {spawned} parts spawned, {caught} fell off the belt's end into the catch bin; "
           f"visible in the image: {visible or 'none'}")
-    print(f"  wrote {' '.join(outputs.written)} to {printable(args.out.rstrip('/') or '/')}/ "
+    print(f"  wrote {' '.join(outputs.written)} to {escape(args.out.rstrip('/') or '/')}/ "
           f"({time.perf_counter() - t0:.2f} s wall)")
     return 0

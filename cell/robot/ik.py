@@ -253,6 +253,33 @@ class ArmIK:
                           f"be {1000 * inside[1]:.1f} mm inside the {inside[0]}")
         return cfg.q.copy()
 
+    def solve_pose(self, T_base_tcp: np.ndarray, seed: np.ndarray, *, tolerance: float,
+                   iterations: int, limits: list | None = None, what: str = "pose") -> np.ndarray:
+        """Joint angles (6,) rad that put the TCP at ``T_base_tcp`` (4x4, m, any
+        orientation), from ``seed`` (6,) rad, with this IK's tasks (the posture task keeps
+        the arm on the seed's branch) and ``limits`` (None: this IK's, collisions included),
+        to within ``tolerance`` m and 10x that in rad. Raises ``IKError`` naming ``what``
+        when it does not converge in ``iterations`` or the QP has no solution. No reach,
+        furniture or argument checks: for poses a program draws (calibration views, the
+        flange board's poses), not a user's targets (:meth:`solve`)."""
+        cfg = self.configuration
+        cfg.update(np.asarray(seed, dtype=np.float64))
+        self.task.set_target(mink.SE3.from_matrix(T_base_tcp))
+        self.posture.set_target(cfg.q)
+        where = f"{what} at {np.round(T_base_tcp[:3, 3], 3).tolist()} m"
+        for _ in range(iterations):
+            err = self.task.compute_error(cfg)
+            if np.linalg.norm(err[:3]) <= tolerance and np.linalg.norm(err[3:]) <= 10 * tolerance:
+                return cfg.q.copy()
+            try:
+                v = mink.solve_ik(cfg, [self.task, self.posture], _IK_DT, "daqp",
+                                  limits=self.limits if limits is None else limits)
+            except mink.NoSolutionFound as exc:
+                raise IKError(f"{where}: the IK's QP has no solution ({exc})") from None
+            cfg.integrate_inplace(v, _IK_DT)
+        raise IKError(f"{where}: no convergence in {iterations} iterations (unreachable or "
+                      "blocked)")
+
     def _cup_inside(self, q: np.ndarray) -> tuple[str, float] | None:
         """(obstacle, depth m) where the cup at ``q`` sinks more than ``_INSIDE`` into the
         furniture (table, belt, conveyor, rails, bin walls), or None."""

@@ -91,9 +91,12 @@ class Setpoint(NamedTuple):
 class Segment:
     """A rest-to-rest straight joint motion, time-optimal under the limits.
 
-    ``duration`` (s); ``sample(t)`` gives the commanded position (rad), velocity
-    (rad/s) and acceleration (rad/s^2) at time ``t`` from the start (clamped to the
-    segment).
+    From ``q0`` to ``q1`` (rad, (6,) each) along the path q0 + s (q1 - q0), s from 0 to 1:
+    ``duration`` (s), ``t_accel`` the time (s) spent speeding up (and as long slowing
+    down), ``sd_max`` the path's speed limit (1/s; not reached when the profile is a
+    triangle, ``t_accel`` half the duration) and ``sdd_max`` its acceleration (1/s^2).
+    ``sample(t)`` gives the commanded position (rad), velocity (rad/s) and acceleration
+    (rad/s^2) at time ``t`` from the start (clamped to the segment).
     """
 
     q0: np.ndarray
@@ -107,17 +110,17 @@ class Segment:
         """The :class:`Setpoint` at time ``t`` (s; before 0 the start, after the end the goal)."""
         t = finite("t", t, RobotError)
         dq = self.q1 - self.q0
-        T, ta, a = self.duration, self.t_accel, self.sdd_max
-        if T <= 0.0 or t >= T:
+        end, ta, a = self.duration, self.t_accel, self.sdd_max
+        if end <= 0.0 or t >= end:
             return Setpoint(self.q1.copy(), np.zeros_like(dq), np.zeros_like(dq))
         t = max(t, 0.0)
         top = a * ta  # top path speed (reached or not)
         if t < ta:
             s, sd, sdd = 0.5 * a * t * t, a * t, a
-        elif t <= T - ta:
+        elif t <= end - ta:
             s, sd, sdd = 0.5 * a * ta * ta + top * (t - ta), top, 0.0
         else:
-            r = T - t
+            r = end - t
             s, sd, sdd = 1.0 - 0.5 * a * r * r, a * r, -a
         return Setpoint(self.q0 + s * dq, sd * dq, sdd * dq)
 
@@ -131,5 +134,5 @@ def plan_segment(q0: np.ndarray, q1: np.ndarray, vmax, amax) -> Segment:
         raise RobotError(f"plan_segment: q0 {q0} and q1 {q1} must be finite, same shape")
     v, a = _limit("vmax", vmax, q0.shape), _limit("amax", amax, q0.shape)
     sd, sdd = _profile_limits(q1 - q0, v, a)
-    T, ta = _duration(sd, sdd)
-    return Segment(q0, q1, T, ta, sd, sdd)
+    duration, ta = _duration(sd, sdd)
+    return Segment(q0, q1, duration, ta, sd, sdd)

@@ -266,22 +266,9 @@ class BoardPoseSampler:
         limit, which holds the wrist back over the belt, is left out) is made at the
         solution, so a close pose will do. Raises ``IKError`` when none is found in
         ``ik_iterations``."""
-        ik = self.ik
-        cfg = ik.configuration
-        cfg.update(np.asarray(seed, dtype=np.float64))
-        ik.task.set_target(mink.SE3.from_matrix(T_world_board @ self._T_board_tcp))
-        ik.posture.set_target(cfg.q)
-        tol_p, tol_r = self.target_tolerance, 10 * self.target_tolerance
-        for _ in range(self.ik_iterations):
-            err = ik.task.compute_error(cfg)
-            if np.linalg.norm(err[:3]) <= tol_p and np.linalg.norm(err[3:]) <= tol_r:
-                return cfg.q.copy()
-            try:
-                v = mink.solve_ik(cfg, [ik.task, ik.posture], 0.2, "daqp", limits=self._limits)
-            except mink.NoSolutionFound as exc:
-                raise IKError(f"flange board pose: the QP has no solution ({exc})") from None
-            cfg.integrate_inplace(v, 0.2)
-        raise IKError("flange board pose: no convergence (unreachable or blocked)")
+        return self.ik.solve_pose(T_world_board @ self._T_board_tcp, seed,
+                                  tolerance=self.target_tolerance, iterations=self.ik_iterations,
+                                  limits=self._limits, what="flange board pose")
 
     def propose(self, n: int, *, seed: int, start: np.ndarray | None = None,
                 max_tries: int | None = None) -> np.ndarray:

@@ -19,6 +19,7 @@ from cell.catalogue import LIGHTING_PRESETS
 from cell.errors import SimError
 from cell.sim import layout
 from cell.sim.conveyor import BELT_RGBA
+from cell.text import show
 
 __all__ = ["LIGHTS", "PRESETS", "LightingPreset", "add_lights", "apply_lighting"]
 
@@ -91,7 +92,7 @@ def add_lights(spec: mujoco.MjSpec) -> None:
 def apply_lighting(model: mujoco.MjModel, name: str) -> LightingPreset:
     """Switch ``model`` to preset ``name``; effective on the next render. Returns it."""
     if name not in PRESETS:
-        raise SimError(f"unknown lighting preset '{name}'; valid: {', '.join(PRESETS)}")
+        raise SimError(f"unknown lighting preset {show(name)}; valid: {', '.join(PRESETS)}")
     preset = PRESETS[name]
     for light in LIGHTS:
         lid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_LIGHT, light)

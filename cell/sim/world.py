@@ -49,6 +49,7 @@ from cell.sim.lighting import LightingPreset, apply_lighting
 from cell.sim.sensor import SensorModel
 from cell.sim.spec import MSAA_MAX, build_spec, draw_sequence
 from cell.sim.stage import PartInfo, Stage
+from cell.text import show
 
 __all__ = ["CAMERAS", "PartInfo", "World"]
 
@@ -373,7 +374,7 @@ class World:
     def _camera_name(self, camera: str) -> str:
         valid = [c for c in CAMERAS if c == "overhead" or self.has_arm]
         if camera not in valid:
-            raise SimError(f"unknown camera '{camera}'; valid: {', '.join(valid)}")
+            raise SimError(f"unknown camera {show(camera)}; valid: {', '.join(valid)}")
         return CAMERAS[camera]
 
     def rig(self, camera: str) -> CameraRig:

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import sys
 
-from cell.config import escape
 from cell.errors import Terminated
 from cell.options import Parser, int_in
 from cell.sweep.progress import clock
 from cell.sweep.runner import BACKENDS, SweepInterrupted, SweepOptions, run_sweep
+from cell.text import escape
 
 __all__ = ["main", "parser"]
 

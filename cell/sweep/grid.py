@@ -23,8 +23,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from cell.config import escape, show
 from cell.sweep.errors import SweepError
+from cell.text import escape, show
 
 __all__ = ["MAX_AXIS", "Axis", "expand_range", "flatten", "parse_axes", "product", "size"]
 

@@ -21,9 +21,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from cell.config import escape
 from cell.files import atomic_write_bytes
 from cell.sweep.errors import SweepError
+from cell.text import escape
 
 __all__ = ["RESULTS", "prepare_out", "remove_temporaries", "sweep_lock", "write_atomic"]
 

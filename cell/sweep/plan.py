@@ -22,12 +22,13 @@ import tomllib
 from dataclasses import dataclass
 from typing import Any
 
-from cell.config import build, escape, show, to_dict
+from cell.config import build, to_dict
 from cell.scenario import Scenario, load_scenario
 from cell.sweep.errors import SweepError
 from cell.sweep.grid import product, size
 from cell.sweep.jobs import job_module
 from cell.sweep.spec import SweepSpec
+from cell.text import escape, show
 
 __all__ = ["FIXED_COLUMNS", "MAX_RUNS", "Columns", "Plan", "Run", "param_value", "plan_sweep", "run_id"]
 

@@ -20,9 +20,9 @@ import threading
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
-from cell.config import escape
 from cell.sweep.errors import SweepError
 from cell.sweep.worker import Chunk, Outcome, run_chunk
+from cell.text import escape
 
 __all__ = ["RayPool", "import_ray"]
 

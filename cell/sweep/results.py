@@ -28,8 +28,8 @@ import re
 from pathlib import Path
 from typing import Any
 
-from cell.config import escape
 from cell.sweep.errors import SweepError
+from cell.text import escape
 
 __all__ = ["Results", "format_value", "open_results", "parse_value", "read_rows"]
 

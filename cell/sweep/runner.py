@@ -17,7 +17,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from cell.config import escape
 from cell.sweep.errors import SweepError
 from cell.sweep.jobs import job_module
 from cell.sweep.output import RESULTS, prepare_out, remove_temporaries, sweep_lock
@@ -26,6 +25,7 @@ from cell.sweep.progress import Progress
 from cell.sweep.results import open_results, read_rows
 from cell.sweep.spec import load_sweep
 from cell.sweep.worker import Chunk, Outcome, Task
+from cell.text import escape
 
 __all__ = ["BACKENDS", "SweepInterrupted", "SweepOptions", "SweepRun", "make_backend", "make_chunks",
            "output_files", "run_plan", "run_sweep"]

@@ -77,11 +77,6 @@ def scene_scenario(scenario: Scenario) -> Scenario:
         conveyor=dataclasses.replace(ConveyorSettings(), speed=0.0))
 
 
-def _radius(kind: str) -> float:
-    k = KINDS[kind]
-    return 0.5 * math.hypot(k.length, k.width)
-
-
 def _view(scenario: Scenario) -> tuple[float, float]:
     """Half extents (x, y) of the overhead camera's view on the belt (m)."""
     from cell.sim import layout
@@ -93,15 +88,16 @@ def _view(scenario: Scenario) -> tuple[float, float]:
 
 def place_parts(kinds: list[str], scenario: Scenario, rng: np.random.Generator, *,
                 gap: float) -> list[tuple[float, float, float]]:
-    """Seeded places (x, y, yaw) for parts of ``kinds`` inside the overhead view on the belt,
-    bounding circles at least ``gap`` apart; ``SweepError`` when they do not fit."""
+    """Seeded places (x, y in metres, world frame; yaw in radians) for parts of ``kinds``
+    inside the overhead view on the belt, bounding circles at least ``gap`` (m) apart;
+    ``SweepError`` when they do not fit."""
     from cell.sim import layout
 
     half_x, half_y = _view(scenario)
     centre = layout.PICK_ZONE
     placed: list[tuple[float, float, float, float]] = []  # x, y, yaw, radius
     for kind in kinds:
-        r = _radius(kind)
+        r = KINDS[kind].half_diagonal
         room_x, room_y = _MARGIN * half_x - r, _MARGIN * half_y - r - 0.003
         for _ in range(_TRIES):
             if room_x <= 0 or room_y < 0:
@@ -140,8 +136,9 @@ def belt_rows(camera: CameraModel, *, inset: float = 0.005) -> tuple[int, int]:
 
 
 def render_scene(scenario: Scenario, *, gap: float = 0.004, retakes: int = 0) -> Scene:
-    """Render the scene of ``scenario`` (see the module docstring), and ``retakes`` more
-    frames of the first preset (the same layout with fresh sensor noise)."""
+    """Render the scene of ``scenario`` (see the module docstring), its parts' bounding
+    circles at least ``gap`` (m) apart, and ``retakes`` more frames of the first preset (the
+    same layout with fresh sensor noise)."""
     from cell.sim.world import World
 
     t0 = time.perf_counter()

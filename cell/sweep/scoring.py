@@ -19,9 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cell.catalogue import KINDS
-from cell.sweep.scene import PartTruth, Scene, belt_rows
+from cell.sweep.scene import Scene, belt_rows
 
-__all__ = ["MIN_PIXELS", "FrameScore", "figures", "foreground_iou", "score_frame"]
+__all__ = ["MIN_PIXELS", "FrameScore", "figures", "foreground_iou", "part_at", "score_frame"]
 
 MIN_PIXELS = 30
 
@@ -46,7 +46,10 @@ class FrameScore:
     yaw_errors_deg: tuple[float, ...]
 
 
-def _part_at(seg: np.ndarray, centroid: tuple[float, float]) -> int:
+def part_at(seg: np.ndarray, centroid: tuple[float, float]) -> int:
+    """The part id (0: none) most common among ``seg``'s non-zero pixels (int (H, W), part
+    ids) in a window 3 px either side of ``centroid`` (u, v, px), grown by 4 px up to 15
+    px either side while it holds no part (a washer's centroid lies in its hole)."""
     u, v = int(round(centroid[0])), int(round(centroid[1]))
     for r in (3, 7, 11, 15):
         win = seg[max(v - r, 0): v + r + 1, max(u - r, 0): u + r + 1]
@@ -54,15 +57,6 @@ def _part_at(seg: np.ndarray, centroid: tuple[float, float]) -> int:
         if ids.size:
             return int(np.bincount(ids).argmax())
     return 0
-
-
-def _yaw_error(truth: PartTruth, yaw: float) -> float | None:
-    sym = KINDS[truth.kind].symmetry
-    if sym <= 0:
-        return None
-    period = 2 * math.pi / sym
-    e = (yaw - truth.yaw) % period
-    return math.degrees(min(e, period - e))
 
 
 def score_frame(scene: Scene, detections: list) -> FrameScore:
@@ -75,7 +69,7 @@ def score_frame(scene: Scene, detections: list) -> FrameScore:
     matched: dict[int, object] = {}
     false = 0
     for d in detections:
-        pid = _part_at(seg, d.centroid)
+        pid = part_at(seg, d.centroid)
         if pid == 0 or pid in matched:
             false += 1
         else:
@@ -94,9 +88,9 @@ def score_frame(scene: Scene, detections: list) -> FrameScore:
         class_ok += d.kind == t.kind and d.material == t.material
         if d.position is not None:
             pos.append(1e3 * math.hypot(d.position[0] - t.position[0], d.position[1] - t.position[1]))
-        e = _yaw_error(t, d.yaw) if d.kind == t.kind else None
+        e = KINDS[t.kind].yaw_error(d.yaw, t.yaw) if d.kind == t.kind else None
         if e is not None:
-            yaw.append(e)
+            yaw.append(math.degrees(e))
     return FrameScore(len(inside), found, false, kind_ok, material_ok, unknown, class_ok, tuple(pos),
                       tuple(yaw))
 

@@ -48,11 +48,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cell.config import escape, show
 from cell.files import input_path, read_toml_file
 from cell.sweep.errors import SweepError
 from cell.sweep.grid import Axis, flatten, parse_axes
 from cell.sweep.jobs import JOBS
+from cell.text import escape, show
 
 __all__ = ["MAX_SEED", "Case", "SweepSpec", "load_sweep", "sweep_from_dict"]
 

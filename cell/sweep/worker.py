@@ -27,8 +27,8 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
-from cell.config import escape
 from cell.errors import CellError
+from cell.text import escape
 
 __all__ = ["SCENES_KEPT", "Chunk", "Outcome", "Task", "init_process", "run_chunk", "run_tasks"]
 

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from cell.errors import VisionError
+from cell.text import show
 
 MAX_SIZE = 4095  # pixels: the largest kernel, block or window side a vision function takes
 
@@ -114,7 +115,7 @@ def check_choice(name: str, value: object, choices: tuple) -> None:
             valid = False
     if not valid:
         raise VisionError(
-            f"argument '{name}': {_shown(value)} is not valid (valid: {', '.join(map(repr, choices))})"
+            f"argument '{name}': {show(value)} is not valid (valid: {', '.join(map(repr, choices))})"
         )
 
 
@@ -122,13 +123,13 @@ def check_odd(name: str, value: object, *, minimum: int = 1, maximum: int = MAX_
     """An odd integer from ``minimum`` to ``maximum`` (kernel and block sizes)."""
     if not _is_int(value) or not minimum <= value <= maximum or value % 2 == 0:
         raise VisionError(f"argument '{name}': expected an odd integer from {minimum} to {maximum}, "
-                          f"got {_shown(value)}")
+                          f"got {show(value)}")
 
 
 def check_int(name: str, value: object, lo: int, hi: int) -> int:
     """An integer (not a bool, not a float) with ``lo <= value <= hi``; returned as ``int``."""
     if not _is_int(value) or not lo <= value <= hi:
-        raise VisionError(f"argument '{name}': expected an integer from {lo} to {hi}, got {_shown(value)}")
+        raise VisionError(f"argument '{name}': expected an integer from {lo} to {hi}, got {show(value)}")
     return int(value)
 
 
@@ -136,9 +137,9 @@ def check_range(name: str, value: object, lo: float, hi: float) -> float:
     """A real number (not a bool, a string or an array; finite unless a bound is infinite)
     with ``lo <= value <= hi``; returned as ``float``."""
     if not _is_real(value) or not (lo <= value <= hi):
-        raise VisionError(f"argument '{name}': {_shown(value)} is outside [{lo}, {hi}]"
+        raise VisionError(f"argument '{name}': {show(value)} is outside [{lo}, {hi}]"
                           if _is_real(value) else
-                          f"argument '{name}': expected a number in [{lo}, {hi}], got {_shown(value)}")
+                          f"argument '{name}': expected a number in [{lo}, {hi}], got {show(value)}")
     return float(value)
 
 
@@ -156,8 +157,3 @@ def _is_int(value: object) -> bool:
 
 def _is_real(value: object) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."

@@ -36,10 +36,10 @@ from PIL import Image, UnidentifiedImageError
 
 from cell.calib.calfile import SCHEMA
 from cell.camera import CameraModel, read_json_file
-from cell.config import escape, override_source
 from cell.errors import CalibrationError, ScenarioError, VisionError
 from cell.options import Parser
 from cell.scenario import load_scenario, scenario_from_dict
+from cell.text import escape, override_source
 from cell.vision.detector import PartDetector
 from cell.vision.settings import VisionSettings
 

@@ -96,18 +96,23 @@ def erode(image: np.ndarray, *, size: int = 3, shape: str = "square", iterations
 
 
 def dilate(image: np.ndarray, *, size: int = 3, shape: str = "square", iterations: int = 1):
-    """Dilation (expand): maximum over the structuring element; see :func:`erode`."""
+    """Dilation (expand): maximum over the structuring element. ``image`` a bool mask or a
+    uint8 grey image (H, W), the output of the same dtype; options as :func:`erode`'s."""
     return _morph(cv2.dilate, image, size, shape, iterations, 0)
 
 
 def opening(image: np.ndarray, *, size: int = 3, shape: str = "square", iterations: int = 1):
-    """Opening: erosion then dilation; removes specks and bridges narrower than ``size``."""
+    """Opening: erosion then dilation; removes specks and bridges narrower than ``size``.
+    ``image`` a bool mask or a uint8 grey image (H, W), the output of the same dtype;
+    options as :func:`erode`'s."""
     eroded = erode(image, size=size, shape=shape, iterations=iterations)
     return dilate(eroded, size=size, shape=shape, iterations=iterations)
 
 
 def closing(image: np.ndarray, *, size: int = 3, shape: str = "square", iterations: int = 1):
     """Closing: dilation then erosion; fills gaps and holes narrower than ``size``.
+    ``image`` a bool mask or a uint8 grey image (H, W), the output of the same dtype;
+    options as :func:`erode`'s.
 
     Outside the image counts for neither step (``cv2.morphologyEx``'s default border:
     the dilation takes no maximum from it, the erosion no minimum), so regions at the

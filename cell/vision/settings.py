@@ -10,8 +10,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from cell.config import check, escape, setting
+from cell.config import check, setting
 from cell.errors import ScenarioError
+from cell.text import escape
 
 __all__ = ["SEGMENTATIONS", "VisionSettings"]
 

@@ -5,8 +5,12 @@ circularity ``P^2 / (4 pi A)`` (1 for a disc, larger for anything else: 1.27 for
 square), compactness ``A / P^2`` (1 / (4 pi) for a disc), the seven Hu moment
 invariants, orientation from the second central moments, and the number of holes.
 
-Conventions: image axes x right, y down (pixels); angles in radians measured from
-+x towards +y (clockwise on screen), in (-pi/2, pi/2].
+Every function takes a ``mask``: bool, or uint8 with nonzero inside, (H, W), meant to
+hold one region. Given several, what needs an outline (the perimeter, and with it
+circularity and compactness's denominator; the holes) is taken of the largest
+8-connected region by pixel count; the area, the rectangle and the moments of every set
+pixel. Conventions: image axes x right, y down (pixels); angles in radians measured
+from +x towards +y (clockwise on screen), in (-pi/2, pi/2].
 
 References: Gonzalez & Woods, *Digital Image Processing*, 4th ed., 11.2-11.4;
 M.-K. Hu, "Visual pattern recognition by moment invariants", IRE Trans. IT 8(2),

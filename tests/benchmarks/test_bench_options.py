@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from cell.benchmarks import pick, vision
-from cell.benchmarks.vision_score import new_stats, summarise
+from cell.benchmarks.vision_score import Tally, summarise
 
 ROOT = Path(__file__).parent.parent.parent
 
@@ -144,10 +144,8 @@ def test_a_pick_with_no_finished_cycle_reports_null_and_dash(monkeypatch, capsys
 
 def _empty_stats(presets=("front",)) -> dict:
     """A run's statistics where a frame was detected but no part was matched."""
-    stats = {p: new_stats() for p in presets}
-    for s in stats.values():
-        s.update({"false": 2, "missed": 1, "latency": [0.004], "render": [0.0], "per_part": [0.004]})
-    return stats
+    return {p: Tally(false=2, missed=1, latency=[0.004], render=[0.0], per_part=[0.004])
+            for p in presets}
 
 
 def test_vision_figures_with_no_samples_are_null_and_dash(capsys):

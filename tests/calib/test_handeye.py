@@ -80,10 +80,10 @@ def test_the_refinement_recovers_from_a_perturbed_start_and_lowers_the_error(exa
 
 def test_with_pixel_noise_every_step_stays_close_and_the_refinement_fits_best():
     v = views(20, seed=9, noise_px=0.05)
-    intr, estimates, chosen, ref = solve_wrist(v["corners"], v["T_base_flange"], BOARD, image_size=SIZE,
-                                               terms=4)
+    solution = solve_wrist(v["corners"], v["T_base_flange"], BOARD, image_size=SIZE, terms=4)
+    intr, ref, best = solution.intrinsics, solution.refinement, solution.best
     assert abs(intr.K[0, 0] / K_TRUE[0, 0] - 1) < 1e-3
-    best = next(e for e in estimates if e.method == chosen)
+    assert best.method == solution.chosen and len(solution.estimates) >= 2
     assert ref.rms_px <= best.consistency_px
     for T in (best.T_flange_camera, ref.T_flange_camera):
         rot, trans = pose_error(T, X_TRUE)

@@ -6,8 +6,10 @@ import warnings
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
-from cell.jobs.report import draw_detections
+from cell.errors import JobError
+from cell.jobs.report import draw_detections, encode_png
 from cell.vision.detector import Detection
 
 
@@ -22,3 +24,14 @@ def test_a_huge_size_or_yaw_is_drawn_without_warnings():
         warnings.simplefilter("error")
         drawn = draw_detections(image, [far], camera=camera)
     assert drawn.shape == image.shape and drawn.any()
+
+
+@pytest.mark.parametrize("image", [np.zeros((48, 64), np.uint8), np.zeros((48, 64, 3), np.float32),
+                                   np.zeros((48, 64, 4), np.uint8), np.zeros((0, 64, 3), np.uint8),
+                                   [[0, 0, 0]]])
+def test_an_image_not_uint8_rgb_is_one_job_error(image):  # was a cv2.error, or a grey PNG
+    camera = SimpleNamespace(K=np.diag([500.0, 500.0, 1.0]), T_world_camera=np.eye(4))
+    with pytest.raises(JobError, match="draw_detections: argument 'image': expected a uint8 RGB"):
+        draw_detections(image, [], camera=camera)
+    with pytest.raises(JobError, match="encode_png: argument 'image'"):
+        encode_png(image)

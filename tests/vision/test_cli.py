@@ -124,7 +124,7 @@ def test_camera_directory_or_missing_exit_2(snapshot, tmp_path, capfd):
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(tmp_path)]) == 2
     assert "is a directory" in _one_error_line(capfd, f"camera file '{tmp_path}'")
     assert cell_main(["detect", str(snapshot / "rgb.png"), "--camera", str(tmp_path / "no.json")]) == 2
-    _one_error_line(capfd, f"no such camera file: '{tmp_path / 'no.json'}'")
+    _one_error_line(capfd, f"camera file '{tmp_path / 'no.json'}': no such camera file")
 
 
 BAD_MODELS = {  # one field of the snapshot's camera.json changed: the message names it

@@ -22,8 +22,8 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from cell.config import escape
 from cell.sweep.errors import SweepError
+from cell.text import escape
 
 __all__ = ["JOBS", "job_module"]
 

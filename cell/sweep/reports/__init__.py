@@ -31,7 +31,7 @@ REPORTS: dict[str, str] = {
 
 def report_module(name: str):
     """The report module ``name``; ``SweepError`` listing the reports if there is none."""
-    from cell.config import escape
+    from cell.text import escape
 
     if name not in REPORTS:
         raise SweepError(f"unknown report {escape(repr(name))}; valid: {', '.join(REPORTS)}")

@@ -9,9 +9,9 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-from cell.config import escape
 from cell.sweep.output import RESULTS, write_atomic
 from cell.sweep.results import read_rows
+from cell.text import escape
 
 __all__ = ["summary_text", "write_summary"]
 

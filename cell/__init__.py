@@ -20,12 +20,23 @@ from cell.errors import (  # noqa: E402
     RobotError,
     ScenarioError,
     SimError,
+    SweepError,
     VisionError,
 )
+from cell.lazy import lazy_names  # noqa: E402
 
 __version__ = "0.1.0"
 
-__all__ = [
+_WHERE = {  # the names most programs start from, loaded on first use
+    "CameraModel": "camera",
+    "KINDS": "catalogue",
+    "LIGHTING_PRESETS": "catalogue",
+    "MATERIALS": "catalogue",
+    "Scenario": "scenario",
+    "load_scenario": "scenario",
+}
+
+__all__ = sorted(_WHERE) + [
     "BenchError",
     "CalibrationError",
     "CellError",
@@ -36,6 +47,13 @@ __all__ = [
     "RobotError",
     "ScenarioError",
     "SimError",
+    "SweepError",
     "VisionError",
     "__version__",
 ]
+
+__getattr__, _ = lazy_names(__name__, _WHERE, globals())
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

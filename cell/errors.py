@@ -58,6 +58,10 @@ class JobError(CellError):
     """A job cannot run as asked (a detector that does not load, an unusable output path)."""
 
 
+class SweepError(CellError):
+    """A sweep file, its grid, the output folder or a run is invalid (names the culprit)."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread while a command runs (``cell.cli``), so that
     the command unwinds as on Ctrl-C (its temporary files removed, its workers stopped)
@@ -76,6 +80,7 @@ __all__ = [
     "RobotError",
     "ScenarioError",
     "SimError",
+    "SweepError",
     "Terminated",
     "VisionError",
 ]

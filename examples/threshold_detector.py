@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from cell.catalogue import KINDS
+from cell.sim.layout import BELT_TOP  # m: the surface the parts lie on (no MuJoCo needed)
 from cell.vision import (
     Detection,
     colour_stats,
@@ -29,7 +30,6 @@ from cell.vision import (
     threshold_otsu,
 )
 
-BELT_TOP = 0.08  # m: the surface the parts lie on (cell.sim.layout.BELT_TOP)
 AREAS = {name: k.length * k.width for name, k in KINDS.items()}  # m^2, roughly
 
 
@@ -37,6 +37,8 @@ class ThresholdDetector:
     """Otsu threshold, opening, labeling; material from saturation, kind from area."""
 
     def detect(self, image: np.ndarray, camera) -> list[Detection]:
+        """The parts in ``image`` (uint8 RGB, (H, W, 3)) seen by ``camera`` (a
+        ``CameraModel`` looking down on the belt), one ``Detection`` per region."""
         grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
         mask = opening(threshold_fixed(grey, value=threshold_otsu(grey)), size=3)
         regions = label_components(mask, min_area=60)

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-PACKAGES = ("cell.calib", "cell.jobs", "cell.robot", "cell.sim", "cell.sweep", "cell.vision",
+PACKAGES = ("cell", "cell.calib", "cell.jobs", "cell.robot", "cell.sim", "cell.sweep", "cell.vision",
             "cell.vision.steps")
 
 
@@ -22,7 +22,7 @@ def test_every_name_resolves_and_dir_lists_them(name):
 
 
 def test_importing_a_package_imports_none_of_its_modules():
-    code = ("import sys, cell.vision, cell.robot, cell.calib, cell.jobs, cell.sweep, cell.sim; "
+    code = ("import sys, cell, cell.vision, cell.robot, cell.calib, cell.jobs, cell.sweep, cell.sim; "
             "from cell.sim import layout; "
             "print(sorted(m for m in ('cell.vision.detector', 'cell.robot.pick', 'cell.calib.job', "
             "'cell.jobs.sort', 'cell.sweep.runner', 'cell.sim.world', 'mujoco', 'cv2') "

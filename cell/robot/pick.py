@@ -15,7 +15,6 @@ per part and goes on.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import numbers
@@ -261,12 +260,15 @@ class PickPlace:
         return condition()
 
     def _abort(self, error: MotionError) -> MotionError:
-        """Vent the cup and take the arm home (as near as it gets); returns ``error``."""
+        """Vent the cup and take the arm home (as near as it gets); returns ``error``, whose
+        message also says so when the arm could not get home."""
         self.cup.off()
         home = self.home.copy()
         home[5] = self.driver.q_cmd[5]
-        with contextlib.suppress(MotionError):
+        try:
             self.driver.move(home, what="home after an aborted pick")
+        except MotionError as exc:
+            error.args = (f"{error}; the arm did not get back home either ({exc})", *error.args[1:])
         return error
 
     def run(self, part: PartTarget, *, lifted: Callable[[], None] | None = None) -> PickResult:
@@ -276,8 +278,8 @@ class PickPlace:
 
         Raises ``IKError`` (no solution, nothing moved), ``GraspError`` (the vacuum switch
         reports no part after the lift, or lost on the way; ``lost`` says which) or
-        ``MotionError`` (the arm blocked); after either the cup is vented and the arm back
-        home."""
+        ``MotionError`` (the arm blocked); after either the cup is vented and the arm taken
+        home (where it cannot get there, the error's message says so too)."""
         t0 = self.data.time
         n_ik = len(self.ik.stats)
         self.driver.sync()

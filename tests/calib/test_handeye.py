@@ -10,7 +10,13 @@ import pytest
 from cell.calib.handeye import HAND_EYE_METHODS, HandEyeData, compare_hand_eye, consistency, solve_hand_eye
 from cell.calib.intrinsics import calibrate_intrinsics
 from cell.calib.refine import refine_hand_eye
-from cell.calib.transforms import mean_transform, pose_error, transform_from_rvec
+from cell.calib.transforms import (
+    make_transform,
+    mean_transform,
+    pose_error,
+    project_to_rotation,
+    transform_from_rvec,
+)
 from cell.calib.wrist import solve_wrist
 from cell.errors import CalibrationError
 from tests.calib.synthetic import B_TRUE, BOARD, K_TRUE, SIZE, X_TRUE, views
@@ -88,6 +94,30 @@ def test_with_pixel_noise_every_step_stays_close_and_the_refinement_fits_best():
     for T in (best.T_flange_camera, ref.T_flange_camera):
         rot, trans = pose_error(T, X_TRUE)
         assert rot < 0.05 and trans < 5e-4
+
+
+def test_the_method_chosen_fits_best_and_the_refinement_reports_its_start():
+    """Of the closed forms the one with the least consistency error is chosen (0.5 px of
+    noise on the corners spreads them), and the refinement's start RMS is that error (per
+    corner, over x and y together)."""
+    v = views(12, seed=9, noise_px=0.5)
+    solution = solve_wrist(v["corners"], v["T_base_flange"], BOARD, image_size=SIZE, terms=4)
+    errors = {e.method: e.consistency_px for e in solution.estimates}
+    assert max(errors.values()) > 1.5 * min(errors.values()), errors
+    assert errors[solution.chosen] == min(errors.values())
+    ref = solution.refinement
+    assert ref.start_rms_px == pytest.approx(solution.best.consistency_px, rel=1e-9)
+    assert ref.rms_px < ref.start_rms_px
+
+
+def test_project_to_rotation_never_returns_a_reflection():
+    R = project_to_rotation(np.diag([1.0, 1.0, -1.0]))
+    assert np.linalg.det(R) == pytest.approx(1.0) and pytest.approx(np.eye(3)) == R @ R.T
+
+
+def test_mean_transform_averages_the_translations():
+    a, b = make_transform(np.eye(3), [0.0, 0.0, 0.0]), make_transform(np.eye(3), [0.01, 0.0, 0.002])
+    assert mean_transform(np.stack([a, b]))[:3, 3] == pytest.approx([0.005, 0.0, 0.001])
 
 
 def test_mean_transform_of_identical_poses_is_that_pose():

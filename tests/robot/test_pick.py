@@ -59,6 +59,23 @@ def test_a_part_goes_to_its_bin_within_the_joint_limits(cell):
     assert skill.driver.max_tracking_error < 0.005  # the servos follow the reference
 
 
+def test_an_aborted_pick_that_cannot_get_home_says_so(cell, monkeypatch):
+    world, skill, _ = cell
+    move = skill.driver.move
+
+    def blocked_home(q, *, what="move", **kw):
+        if what == "home after an aborted pick":
+            raise MotionError("home after an aborted pick: blocked (test)")
+        return move(q, what=what, **kw)
+
+    monkeypatch.setattr(skill.driver, "move", blocked_home)
+    empty = PartTarget("hex_nut", 0.02, layout.CONVEYOR_Y + 0.03, 0.4, "metal")
+    with pytest.raises(MotionError, match="no part held.*did not get back home either"):
+        skill.run(empty)  # (the failed homing was swallowed without a word)
+    monkeypatch.undo()
+    skill.driver.move(HOME)
+
+
 def test_vacuum_switch_reads_a_held_part_and_an_open_cup(cell):
     world, skill, _ = cell
     part = world.place_next_part(0.0, layout.CONVEYOR_Y, 0.0)
@@ -140,3 +157,16 @@ def test_the_driver_refuses_what_would_reach_the_servos_as_nonsense(cell):
             driver.wait(seconds)
     with pytest.raises(RobotError, match="argument 'bin': expected a name"):
         PartTarget("washer", 0.0, 0.45, 0.0, ["metal"])
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.5 * np.pi, 2.0])
+def test_an_l_bracket_is_grasped_on_its_long_legs_centre_line(cell, yaw):
+    """The bracket's centroid lies off its legs: the cup goes 4.655 mm from it towards the
+    outer edge of the long leg (body -y; legs 40 x 12 and 30 x 12 mm, the centroid 4.345 mm
+    inside the bounding box's middle), turned with the part's yaw."""
+    _, skill, _ = cell
+    x, y = 0.01, layout.CONVEYOR_Y
+    wp = skill.plan(PartTarget("l_bracket", x, y, yaw, "metal"))
+    tcp, _ = skill.ik.fk(wp["grasp"])
+    want = np.array([x, y]) + 0.004655 * np.array([np.sin(yaw), -np.cos(yaw)])
+    assert np.hypot(*(tcp[:2] - want)) < 2e-4

@@ -24,6 +24,8 @@ def test_ranges_lists_and_single_values():
     assert expand_range({"from": 0, "to": 255, "step": 15}, "k", "f") == list(range(0, 256, 15))
     assert expand_range({"from": 1, "to": 4}, "k", "f") == [1, 2, 3, 4]
     assert expand_range({"from": 0.1, "to": 0.5, "step": 0.1}, "k", "f") == [0.1, 0.2, 0.3, 0.4, 0.5]
+    # 0.3 / 0.1 is 2.9999999999999996 in floating point: the end is still a value
+    assert expand_range({"from": 0, "to": 0.3, "step": 0.1}, "k", "f") == [0.0, 0.1, 0.2, 0.3]
     assert expand_range({"from": 0.0, "to": 1.0, "count": 5}, "k", "f") == [0.0, 0.25, 0.5, 0.75, 1.0]
     assert expand_range({"from": 10, "to": 40, "count": 4}, "k", "f") == [10, 20, 30, 40]
     axes = parse_axes({"a": [1, 2], "b": "x", "c": {"from": 0, "to": 2}}, "f")

@@ -335,3 +335,32 @@ def test_a_bolt_shaped_strip_along_the_belts_edge_is_no_part():
         cv2.rectangle(img, drawn.mm(-24, y + 5.5), drawn.mm(-20, y - 5.5), (150, 150, 150), -1)
         found.append([d.kind for d in PartDetector().detect(img, drawn.camera())])
     assert found == [[], ["bolt"]]
+
+
+def test_detections_are_numbered_left_to_right():
+    """The washers lie from top left to bottom right: OpenCV's contours come bottom first,
+    the detections are numbered from the left."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    for x, y in ((-40, 12), (0, 0), (40, -12)):  # left and high to right and low
+        cv2.circle(img, drawn.mm(x, y), drawn.px(10), (210, 60, 50), -1)
+        cv2.circle(img, drawn.mm(x, y), drawn.px(5.25), drawn.BELT, -1)
+    dets = PartDetector().detect(img, drawn.camera())
+    assert [d.id for d in dets] == [1, 2, 3] and [d.kind for d in dets] == ["washer"] * 3
+    us = [d.centroid[0] for d in dets]
+    assert us == sorted(us) and us[0] == pytest.approx(drawn.mm(-40, 12)[0], abs=1)
+
+
+def test_a_strip_narrower_than_any_part_is_no_part():
+    """A bright strip 8 mm wide and 40 mm long (a rail's edge, a reflection), narrower than
+    the narrowest part (11 mm): no detection."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    cv2.rectangle(img, drawn.mm(-20, 4), drawn.mm(20, -4), (200, 200, 195), -1)
+    assert PartDetector().detect(img, drawn.camera()) == []

@@ -267,3 +267,12 @@ _K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
 def test_solve_planar_pnp_refuses_what_gives_no_pose(args, culprit):
     with pytest.raises(VisionError, match=culprit):
         solve_planar_pnp(*args)
+
+
+def test_a_pixel_past_the_lens_fold_has_no_ray_and_is_named():
+    """Barrel k1 = -1.5 turns back before the image corner: that corner has no ray (it got
+    a made-up point on the table); the middle of the image still has one."""
+    cam = _overhead(dist=(-1.5, 0.0, 0.0, 0.0, 0.0))
+    with pytest.raises(VisionError, match=r"pixel_to_table: pixel \(0, 0\) has no ray"):
+        pixel_to_table(cam, np.array([[320.0, 240.0], [0.0, 0.0]]), z=0.08)
+    assert np.isfinite(pixel_to_table(cam, np.array([[320.0, 240.0]]), z=0.08)).all()

@@ -46,6 +46,8 @@ def test_min_area_drops_small_regions_and_renumbers():
     c = label_components(mask, min_area=2)
     assert c.count == 1 and c.areas.tolist() == [16]
     assert set(np.unique(c.labels)) == {0, 1}
+    assert label_components(mask, min_area=16).areas.tolist() == [16]  # exactly min_area: kept
+    assert label_components(mask, min_area=17).count == 0
 
 
 def test_bad_connectivity_is_named():

@@ -248,3 +248,14 @@ def test_closing_twice_is_closing_once(shape, size):
     edge = np.zeros((20, 20), bool)
     edge[:, :3] = True
     np.testing.assert_array_equal(closing(edge, size=size, shape=shape), edge)
+
+
+def test_fill_holes_fills_inside_a_one_pixel_diagonal_ring():
+    """A diamond drawn one pixel thick closes only through corners: the background inside
+    cannot reach the border through edges (4-connected), so it is a hole and is filled."""
+    mask = np.zeros((11, 11), bool)
+    for k in range(5):
+        for y, x in ((k, 5 + k), (5 + k, 10 - k), (10 - k, 5 - k), (5 - k, k)):
+            mask[y, x] = True
+    filled = fill_holes(mask)
+    assert filled[5, 5] and filled.sum() == 61  # the ring's 20 pixels and the 41 inside them

@@ -192,3 +192,12 @@ def test_a_shape_of_numpy_int32_cannot_overflow_the_size_check():
     for f in (rle_decode, rle_to_bytes):
         with pytest.raises(VisionError, match="argument 'rle': shape must be two integers"):
             f(big)
+
+
+def test_the_longest_run_round_trips_through_bytes():
+    """One run of 2**28 pixels (the largest array, 16384 x 16384, all one value) needs a
+    5-byte varint: it came back as 0 when the encoder stopped at 4 bytes."""
+    side = 2**14
+    rle = RunLength((side, side), True, np.zeros(1, np.uint8), np.array([side * side], np.int64))
+    back = rle_from_bytes(rle_to_bytes(rle))
+    assert back.shape == (side, side) and back.lengths.tolist() == [side * side]

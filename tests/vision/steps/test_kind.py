@@ -104,3 +104,18 @@ def test_score_fit_refuse_what_is_not_theirs():
         fit_kind(blob, None)
     with pytest.raises(VisionError, match="argument 'min_confidence'"):
         fit_kind(blob, plane, min_confidence=np.nan)
+
+
+def test_confidence_halves_from_a_good_fit_to_the_worst_fit():
+    """2 ** -((s - 4) / 12) beyond a good fit (score 4), the only kind in reach: 0.794 at 8."""
+    scores = np.full(len(KINDS), 30.0)
+    scores[0] = 8.0
+    assert classify_kind(scores, min_confidence=0.0)[1] == pytest.approx(2 ** (-4 / 12), abs=1e-3)
+
+
+def test_min_confidence_decides_between_the_kind_and_unknown():
+    scores = np.full(len(KINDS), 30.0)
+    hex_nut = KIND_NAMES.index("hex_nut")
+    scores[hex_nut] = 12.0  # confidence 2 ** (-8 / 12) = 0.63
+    assert classify_kind(scores, min_confidence=0.8) == ("unknown", pytest.approx(0.63, abs=0.01))
+    assert classify_kind(scores, min_confidence=0.6) == ("hex_nut", pytest.approx(0.63, abs=0.01))

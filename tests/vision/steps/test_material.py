@@ -343,3 +343,23 @@ def test_classify_material_refuses_bad_values(change, culprit):
     call = {"features": _features(0.1, 10.0), "backlit": False, **OPTS, **change}
     with pytest.raises(VisionError, match=culprit):
         classify_material(call.pop("features"), **call)
+
+
+def test_grain_on_a_dark_part_does_not_count():
+    """On a part whose albedo averages under 0.25 the noise swamps a metal's grain: what
+    reads as grain there changes nothing (a black plastic part stays plastic, as sure)."""
+    dark = (0.08, 0.08, 0.08)
+    grainy = classify_material(_features(0.08, 10.0, albedo=dark), backlit=False, **OPTS)
+    smooth = classify_material(_features(0.0, 0.0, albedo=dark), backlit=False, **OPTS)
+    assert grainy == smooth and grainy[0] == "plastic"
+
+
+def test_a_belt_bright_in_one_channel_is_no_light_table():
+    """An orange belt (230, 150, 61) has a channel above backlight_level, not all three:
+    the parts on it are measured, not left unknown as silhouettes on a light table."""
+    orange = (0.9, 0.59, 0.24)
+    settings = VisionSettings(belt_rgb=orange, **OPTS)
+    assert max(orange) * 255 >= settings.backlight_level > min(orange) * 255
+    img, fg, parts = _frame(["steel", "plastic_grey"], belt=orange)
+    got = part_materials(img, fg, parts, settings=settings, backlit=False)
+    assert [g[0] for g in got] == ["metal", "plastic"]

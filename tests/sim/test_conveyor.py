@@ -99,6 +99,35 @@ def test_only_a_part_arriving_latches_the_belt(world_factory):
     assert belt.latched and not belt.running
 
 
+def test_a_released_part_rides_on_until_clear_of_the_beam_for_the_set_distance(world_factory):
+    """The release button (a part the cell gives up on): the belt runs through the break,
+    and a break within the release's 30 mm after the beam cleared (the same part's next
+    leg, a gap in its outline) neither stops nor latches it; after 30 mm clear, the next
+    break is a part arriving and latches it."""
+    world = world_factory(parts={"count": 1}, conveyor={"speed": 0.1})
+    belt, beam = world.conveyor, {"blocked": False}
+    belt.barrier_blocked = lambda data: beam["blocked"]
+    dt = world.model.opt.timestep
+
+    def ticks(n: int, blocked: bool) -> None:
+        beam["blocked"] = blocked
+        for _ in range(n):
+            belt.update(world.data, dt)
+
+    ticks(100, False)
+    ticks(1, True)  # the part arrives
+    assert belt.latched
+    belt.release_part(0.03)
+    ticks(20, True)
+    assert belt.running and not belt.latched
+    ticks(50, False)  # 10 mm clear: past the 5 mm of an arrival's clear run
+    ticks(20, True)  # the released part's second leg in the beam
+    assert belt.running and not belt.latched
+    ticks(150, False)  # 30 mm clear: the release is over
+    ticks(1, True)
+    assert belt.latched and not belt.running
+
+
 def test_continuous_mode_never_stops(world_factory):
     world = world_factory(parts={"count": 1, "kinds": ["disc"]},
                           conveyor={"speed": 0.2, "mode": "continuous"})

@@ -364,3 +364,18 @@ def test_a_strip_narrower_than_any_part_is_no_part():
     img = drawn.frame()
     cv2.rectangle(img, drawn.mm(-20, 4), drawn.mm(20, -4), (200, 200, 195), -1)
     assert PartDetector().detect(img, drawn.camera()) == []
+
+
+@pytest.mark.parametrize(("visible_mm", "reported"), [(4, False), (8, False), (15, True)])
+def test_a_sliver_at_the_border_is_no_partial_part(visible_mm, reported):
+    """A 30 mm disc leaving the image at its left edge: reported partial once at least
+    vision.partial_min_width (10 mm) of it shows; a thinner sliver is not reported."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    r = drawn.px(15)
+    cv2.circle(img, (drawn.px(visible_mm) - r, drawn.H // 2), r, (200, 200, 195), -1)
+    dets = PartDetector().detect(img, drawn.camera())
+    assert [d.partial for d in dets] == ([True] if reported else [])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from types import SimpleNamespace
 
@@ -10,6 +11,7 @@ import pytest
 
 from cell.errors import JobError
 from cell.jobs.report import draw_detections, encode_png
+from cell.sim.layout import BELT_TOP
 from cell.vision.detector import Detection
 
 
@@ -35,3 +37,35 @@ def test_an_image_not_uint8_rgb_is_one_job_error(image):  # was a cv2.error, or 
         draw_detections(image, [], camera=camera)
     with pytest.raises(JobError, match="encode_png: argument 'image'"):
         encode_png(image)
+
+
+SURE, REJECT = (40, 200, 60), (255, 150, 0)
+
+
+def _camera():
+    camera = SimpleNamespace(K=np.diag([500.0, 500.0, 1.0]), T_world_camera=np.eye(4))
+    camera.T_world_camera[2, 3] = BELT_TOP + 1.0  # 500 px per metre on the belt
+    return camera
+
+
+def _det(*, yaw=0.0, partial=False):
+    return Detection(id=1, material="metal", material_confidence=1.0, kind="bolt", kind_confidence=1.0,
+                     centroid=(100.0, 100.0), yaw=yaw, symmetry=0, position=(0.0, 0.0),
+                     size=(0.08, 0.004), partial=partial)
+
+
+def test_a_partial_detection_is_drawn_orange_a_whole_one_green():
+    image = np.zeros((200, 200, 3), np.uint8)
+    whole = draw_detections(image, [_det()], camera=_camera())
+    part = draw_detections(image, [_det(partial=True)], camera=_camera())
+    assert tuple(whole[100, 100]) == SURE
+    assert tuple(part[100, 100]) == REJECT
+
+
+def test_the_box_turns_with_the_yaw_as_seen_from_above():
+    """World y is image up: a bolt at yaw -45 deg (clockwise seen from above) lies from
+    the top-left to the bottom-right of the image, not from bottom-left to top-right."""
+    image = np.zeros((200, 200, 3), np.uint8)
+    out = draw_detections(image, [_det(yaw=-math.pi / 4)], camera=_camera())
+    assert out[113:118, 113:118].any()  # 15 px down-right of the centre: on the box
+    assert not out[113:118, 82:87].any()  # 15 px down-left: off it

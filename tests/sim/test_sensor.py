@@ -262,3 +262,35 @@ def test_a_lens_model_that_folds_the_image_is_a_sim_error():
     for dist in ((-0.3, 0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 1.0, 0.0)):
         with pytest.raises(SimError, match="the lens model folds the image"):
             SensorModel(K=K60, width=W, height=H, distortion=dist).padding()
+
+
+def test_a_noise_run_may_take_the_whole_bank_and_its_last_values():
+    """Offsets are uniform over 0..len(bank) - values inclusive: a run as long as the
+    bank is the bank, and the last value is reachable."""
+    bank = np.arange(10, dtype=np.int16)
+    rng = np.random.default_rng(0)
+    run, sign = noise_run(bank, 10, rng)
+    np.testing.assert_array_equal(run, bank)
+    assert sign in (1.0, -1.0)
+    starts = {int(noise_run(bank, 3, rng)[0][0]) for _ in range(400)}
+    assert starts == set(range(8))
+
+
+def test_add_noise_flips_the_sign_of_the_run_half_the_time():
+    """A bank of +1 unit values and sigma 10: each frame is the image +10 or -10 grey
+    levels, both signs occurring (the sign doubles the distinct noise patterns)."""
+    bank = np.full(12, BANK_SCALE, np.int16)
+    img = np.full((2, 2, 3), 100, np.uint8)
+    rng = np.random.default_rng(5)
+    seen = {int(add_noise(img, bank, 10.0, rng)[0, 0, 0]) for _ in range(32)}
+    assert seen == {90, 110}
+
+
+def test_a_lens_that_sees_beyond_half_the_image_is_a_sim_error():
+    """(-0.1, 0.005) at a 90-degree field on a 64 x 48 sensor does not fold but would need
+    a render padded by more than half the image on each side: refused, saying so."""
+    H, W = 48, 64
+    f = 0.5 * H / np.tan(np.radians(45.0))
+    K = np.array([[f, 0.0, (W - 1) / 2], [0.0, f, (H - 1) / 2], [0.0, 0.0, 1.0]])
+    with pytest.raises(SimError, match="more than half the image"):
+        SensorModel(K=K, width=W, height=H, distortion=(-0.1, 0.005, 0.0, 0.0, 0.0)).padding()

@@ -1,3 +1,5 @@
+import math
+
 import numpy as np
 import pytest
 from skimage.color import rgb2hsv, rgb2lab
@@ -71,3 +73,16 @@ def test_colour_stats_refuses_bad_highlight_limits(name, value):
     img = np.full((4, 4, 3), 200, np.uint8)
     with pytest.raises(VisionError, match=f"argument '{name}'"):
         colour_stats(img, np.ones((4, 4), bool), **{name: value})
+
+
+def test_hue_std_is_the_circular_standard_deviation():
+    """Half the pixels at hue -30 deg, half at +30 deg (full saturation): the mean
+    resultant length is cos 30 deg, the circular std sqrt(-2 ln R) = 30.7 deg."""
+    img = np.zeros((2, 10, 3), np.uint8)
+    img[0] = (255, 0, 128)  # hue 330 deg
+    img[1] = (255, 128, 0)  # hue 30 deg
+    s = colour_stats(img, np.ones((2, 10), bool))
+    r = math.cos(math.radians(30.1))  # 128/255 gives 30.1 deg, not 30
+    expected = math.degrees(math.sqrt(-2.0 * math.log(r)))
+    assert s.hue_mean == pytest.approx(0.0, abs=0.2) or s.hue_mean == pytest.approx(360.0, abs=0.2)
+    assert s.hue_std == pytest.approx(expected, abs=0.3)

@@ -226,3 +226,13 @@ def test_harris_corners_on_a_tiny_image(size):
     a[3:, 3:] = 255
     pts = harris_corners(a, min_distance=4)
     assert len(pts) >= 1 and np.all(np.hypot(pts[:, 0] - 2.5, pts[:, 1] - 2.5) < 2.0)
+
+
+def test_nms_threshold_is_strict():
+    """Only values above the threshold are kept: a zero background with threshold 0
+    yields the single peak, not also a plateau centroid of the flat zeros."""
+    r = np.zeros((30, 30), np.float32)
+    r[10, 12] = 5.0
+    pts = non_max_suppression(r, min_distance=3, threshold=0.0)
+    np.testing.assert_allclose(pts, [[12.0, 10.0]])
+    assert len(non_max_suppression(r, min_distance=3, threshold=5.0)) == 0

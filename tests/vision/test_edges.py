@@ -182,3 +182,27 @@ def test_a_big_endian_image_is_refused_saying_why():
     """'dtype float32 not supported (valid: uint8, float32)' left the user guessing."""
     with pytest.raises(VisionError, match="float32 in non-native byte order not supported"):
         sobel(np.zeros((8, 8), np.dtype(">f4")))
+
+
+def test_canny_accepts_equal_thresholds():
+    """low == high is allowed (0 <= low <= high): a single threshold, no hysteresis."""
+    step = np.zeros((20, 40), np.uint8)
+    step[:, 20:] = 100
+    e = canny(step, low=200.0, high=200.0)
+    assert e.dtype == bool and e[:, 19:21].any(axis=1).all()
+
+
+def test_closure_counts_only_chain_ends_as_endpoints_and_counts_sizes_inclusively():
+    """An isolated pixel has no neighbour, so it is no endpoint; a 5-pixel line has two.
+    A chain of exactly min_fragment pixels is a fragment, and a loop of exactly
+    min_loop_area pixels is a loop ("at least")."""
+    e = np.zeros((40, 40), bool)
+    e[5, 5] = True  # isolated pixel
+    e[20, 10:15] = True  # a 5-pixel line
+    c = contour_closure(e, max_gap=0, min_fragment=5)
+    assert c.endpoints == 2
+    assert c.fragments == 1  # the 5-pixel line, not the single pixel
+    sq = np.zeros((30, 30), np.uint8)
+    cv2.rectangle(sq, (5, 5), (11, 11), 1)  # encloses 5 x 5 = 25 pixels
+    assert contour_closure(sq > 0, max_gap=0, min_loop_area=25).loops == 1
+    assert contour_closure(sq > 0, max_gap=0, min_loop_area=26).loops == 0

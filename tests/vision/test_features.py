@@ -99,3 +99,13 @@ def test_orb_match_is_repeatable_and_leaves_opencvs_rng_alone():
     cv2.setRNGSeed(777)
     again = orb_match(_bracket(), scene)
     np.testing.assert_array_equal(first.H, again.H)
+
+
+def test_orb_needs_min_inliers_not_just_min_matches():
+    """Enough ratio-tested matches but one RANSAC inlier too few: not found."""
+    part = _bracket()
+    scene, _ = _scene_with(part, 50.0, (190.0, 110.0))
+    found = orb_match(part, scene)
+    assert found is not None and found.inliers < found.matches  # an outlier among the matches
+    assert orb_match(part, scene, min_inliers=found.inliers) is not None
+    assert orb_match(part, scene, min_inliers=found.inliers + 1) is None

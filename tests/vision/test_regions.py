@@ -139,3 +139,13 @@ def test_split_and_merge_refuses_bad_numbers(name, value):
     kw = {"tolerance": 5, name: value}
     with pytest.raises(VisionError, match=f"argument '{name}'"):
         split_and_merge(img, **kw)
+
+
+def test_split_and_merge_keeps_a_region_of_exactly_min_area():
+    """Regions smaller than min_area are 0; one of exactly min_area pixels is kept."""
+    img = np.zeros((16, 16), np.uint8)
+    img[4:8, 4:8] = 200  # 16 pixels
+    kept = split_and_merge(img, tolerance=10, min_area=16)
+    assert kept.max() == 2 and np.all(kept[4:8, 4:8] == 2)
+    dropped = split_and_merge(img, tolerance=10, min_area=17)
+    assert np.all(dropped[4:8, 4:8] == 0) and dropped[0, 0] == 1

@@ -215,3 +215,10 @@ def test_rect_angle_of_a_vertical_bar_is_in_the_documented_range():
     m[5:35, 18:22] = True
     d = describe_shape(m)
     assert d.rect_angle == pytest.approx(math.pi / 2) and d.orientation == pytest.approx(math.pi / 2)
+
+
+def test_describe_shape_centroid_is_x_then_y():
+    m = np.zeros((40, 80), bool)
+    m[10:20, 30:60] = True  # rows 10..19, columns 30..59
+    d = describe_shape(m)
+    assert d.centroid == pytest.approx((44.5, 14.5))

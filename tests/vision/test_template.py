@@ -249,3 +249,37 @@ def test_match_sad_refuses_work_beyond_its_bound():
     img = np.zeros((2000, 2000), np.uint8)
     with pytest.raises(VisionError, match="argument 'template'.*2\\*\\*32"):
         match_sad(img, img[:200, :200])
+
+
+def test_best_match_centre_of_a_non_square_template():
+    """centre = top-left + ((w - 1) / 2, (h - 1) / 2): x goes with the width."""
+    scores = np.ones((20, 30), np.float32)
+    scores[5, 3] = 0.0
+    m = best_match(scores, (4, 10), method="ssd")
+    assert (m.x, m.y) == (3, 5)
+    assert m.centre == (3 + 4.5, 5 + 1.5)
+
+
+def _two_templates():
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 255, (40, 60)).astype(np.uint8)
+    return img, img[5:20, 5:20].copy(), img[20:35, 30:45].copy()
+
+
+def test_two_template_decision_needs_both_threshold_and_margin():
+    img, tpl_a, tpl_b = _two_templates()
+    # the same template twice: both peak at 1.0, above the threshold but no lead
+    tie = two_template_decision(img, tpl_a, tpl_a.copy())
+    assert tie.score_a == tie.score_b and tie.label == "none"
+    # a lead of exactly the margin wins ("at least margin")
+    d = two_template_decision(img, tpl_a, tpl_b, threshold=0.5, margin=0.0)
+    lead = abs(d.score_a - d.score_b)
+    assert lead > 0 and d.label in ("A", "B")
+    assert two_template_decision(img, tpl_a, tpl_b, threshold=0.5, margin=lead).label == d.label
+
+
+def test_match_sad_refuses_work_just_beyond_its_bound():
+    """65536 template pixels x 65537 placements is just over 2**32: refused at once."""
+    img = np.zeros((1, 2 * 65536), np.uint8)
+    with pytest.raises(VisionError, match="2\\*\\*32"):
+        match_sad(img, img[:, :65536])

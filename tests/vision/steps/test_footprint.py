@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -13,6 +14,7 @@ from cell.camera import CameraModel
 from cell.errors import VisionError
 from cell.vision.geometry import pixel_to_table
 from cell.vision.steps.footprint import TablePlane, describe
+from cell.vision.steps.outlines import outline_of_mask
 from tests.vision.steps import drawn
 
 
@@ -139,3 +141,14 @@ def test_every_pixel_of_a_wide_lens_that_folds_nothing_has_a_ray():
     pixels = np.c_[u.ravel(), v.ravel()]
     assert np.isfinite(TablePlane(wide, 0.08).points(pixels, 0.0)).all()
     assert np.isfinite(pixel_to_table(wide, pixels, z=0.08)).all()
+
+
+def test_blob_area_in_mm2_is_the_pixel_area_times_the_squared_scale():
+    """A disc of radius r px drawn at the image centre covers about pi (r / px_per_mm)^2
+    mm^2 on the table (the scale squared, not the scale)."""
+    cam = drawn.camera()
+    mask = np.zeros((cam.height, cam.width), np.uint8)
+    cv2.circle(mask, drawn.mm(0, 0), drawn.px(10), 255, -1)
+    (blob,) = outline_of_mask(mask, 0, 0, frame=(cam.width, cam.height))
+    plane = TablePlane(cam, 0.08)
+    assert plane.area_mm2(blob) == pytest.approx(math.pi * (drawn.px(10) / drawn.PX_PER_MM) ** 2, rel=0.05)

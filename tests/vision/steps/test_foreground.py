@@ -174,3 +174,22 @@ def test_a_one_level_light_table_has_no_foreground(method):
     frame = np.full((120, 160, 3), 230, np.uint8)
     fg = find_foreground(frame, VisionSettings(segmentation=method))
     assert fg.backlit and not fg.mask.any()
+
+
+def test_a_bright_coloured_belt_is_not_a_light_table():
+    """Bright but saturated (yellow): not back-lit, so a dark part is not taken as a
+    silhouette of the light table, and a bright part on it is still found by Otsu."""
+    img = np.full((480, 640, 3), (250, 230, 40), np.uint8)
+    cv2.circle(img, drawn.mm(0, 0), drawn.px(12), (255, 255, 255), -1)
+    fg = find_foreground(img, VisionSettings(segmentation="otsu"))
+    u, v = drawn.mm(0, 0)
+    assert not fg.backlit
+    assert fg.mask[v, u] == 255 and fg.mask[10, 10] == 0
+
+
+def test_noise_sigma_recovers_the_sensor_noise():
+    """Gaussian noise of sigma 6 grey levels on a flat grey frame measures as about 6
+    (differences of two pixels have sigma 6 sqrt 2; the estimate divides it back)."""
+    rng = np.random.default_rng(4)
+    img = np.clip(128 + rng.normal(0, 6, (480, 640, 3)), 0, 255).astype(np.uint8)
+    assert noise_sigma(img) == pytest.approx(6.0, rel=0.1)

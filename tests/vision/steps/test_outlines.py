@@ -90,3 +90,19 @@ def test_a_part_inside_a_rails_box_is_not_taken_with_the_rail():
     assert len(blobs) == 1
     assert blobs[0].centroid == pytest.approx((300, 240), abs=1.0)
     assert blobs[0].area == pytest.approx(np.pi * 18 ** 2, rel=0.1)
+
+
+def test_a_region_within_margin_of_the_bottom_or_right_border_is_partial():
+    """margin 1 in a 64 x 48 frame: a region whose last row is 46 (one short of the
+    border row 47) is partial, like one whose last column is 62; one row or column
+    farther in is whole."""
+    def partial(x, y, w, h):
+        mask = np.zeros((48, 64), np.uint8)
+        mask[y:y + h, x:x + w] = 255
+        (o,) = outline_of_mask(mask, 0, 0, frame=(64, 48), margin=1)
+        return o.partial
+
+    assert partial(20, 37, 10, 10)  # rows 37..46
+    assert partial(53, 20, 10, 10)  # columns 53..62
+    assert not partial(20, 36, 10, 10)  # rows 36..45
+    assert not partial(52, 20, 10, 10)  # columns 52..61

@@ -8,6 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from cell.benchmarks.sort import meets
+
 ROOT = Path(__file__).parents[2]
 
 
@@ -26,3 +30,23 @@ def test_sort_bench_quick_json_has_the_figures():
         assert abs(sum(row["wall_time_fractions"].values()) - 1.0) < 0.05
     assert out["pooled"]["scenarios"] == ["sort"] and out["pooled"]["parts"] == 3
     assert isinstance(out["meets_required"], bool)
+
+
+def _row(*, accounted=True, rtf_replay=3.0, rtf=4.0, ppm=12.0, pick=0.96) -> dict:
+    return {"accounted": accounted, "real_time_factor_replay": rtf_replay,
+            "metrics": {"real_time_factor": rtf, "parts_per_minute": ppm, "pick_success": pick}}
+
+
+@pytest.mark.parametrize(("name", "row", "verdict"), [
+    ("sort", _row(), True),
+    ("sort", _row(ppm=9.0), False),              # below 10 parts per minute
+    ("sort", _row(rtf=1.5), False),              # fast enough to pick, too slow to simulate
+    ("sort", _row(accounted=False), False),      # a part lost
+    ("sort", _row(rtf_replay=0.5), False),
+    ("sort_faults", _row(ppm=1.0, pick=0.5), True),  # faults: only accounting and speed
+    ("sort_faults", _row(rtf=1.0), False),
+    ("sort_continuous", _row(ppm=1.0, pick=0.96), True),  # its own bar: 0.95, not 0.98
+    ("sort_continuous", _row(pick=0.94), False),
+])
+def test_each_scenario_is_held_to_its_own_bars(name, row, verdict):
+    assert meets(name, row) is verdict

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from cell.calib.board import Board, detect_board
+from cell.calib.settings import CalibrationSettings
 from cell.calib.transforms import make_transform, transform_from_rvec
 from cell.errors import CalibrationError
 from tests.calib.synthetic import BOARD, K_TRUE, board_image
@@ -67,3 +68,17 @@ def test_no_board_no_corners():
 def test_detect_board_refuses_what_is_not_a_uint8_grey_or_rgb_image(image):
     with pytest.raises(CalibrationError, match="detect_board: expected a uint8"):
         detect_board(image, BOARD)
+
+
+def test_the_plate_on_the_tool_is_read_from_its_own_keys():
+    s = CalibrationSettings(flange_board_inner_corners=(6, 5), flange_board_square=0.02)
+    assert Board.on_tool_from_settings(s) == Board((6, 5), 0.02)
+    assert Board.from_settings(s) == Board((8, 5), 0.025)
+
+
+def test_a_far_board_keeps_its_corners_to_a_tenth_of_a_pixel():
+    # corners ~14 px apart: a refinement window reaching the next corner pulls them ~1 px off
+    image, truth = _view([0.3, -0.2, 0.4], distance=0.9)
+    view = detect_board(image, BOARD, first="classic")
+    assert view is not None and view.detector == "classic"
+    assert np.abs(view.corners - truth).max() < 0.1

@@ -13,6 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import cell.calib.calfile as calfile
 from cell.calib.calfile import CalibrationFile, calibration_from_dict, load_calibration, write_calibration
 from cell.camera import CameraModel
 from cell.errors import CalibrationError
@@ -190,3 +191,24 @@ def test_any_edit_loads_as_valid_data_or_names_the_problem(edits):
         R = cam.pose[:3, :3]
         assert np.abs(R.T @ R - np.eye(3)).max() < 1e-5 and np.linalg.det(R) > 0
         assert math.isfinite(cam.rms) and cam.rms >= 0
+
+
+def test_a_fixed_camera_refuses_a_flange_pose(tmp_path):
+    path = tmp_path / "calib.json"
+    overhead = calibration_entry(name="overhead", pose_name="T_base_camera", pose=np.diag([1.0, -1, -1, 1]))
+    write_calibration(path, CalibrationFile((calibration_entry(), overhead)))
+    T_base_flange = np.eye(4)
+    T_base_flange[:3, 3] = [0.4, 0.1, 0.5]
+    with pytest.raises(CalibrationError, match="camera 'overhead' is fixed .* takes no flange pose"):
+        CameraModel.from_calibration(path, "overhead", T_base_flange=T_base_flange)
+
+
+def test_a_file_that_reads_back_differently_is_not_written(tmp_path, monkeypatch):
+    path = tmp_path / "calib.json"
+    write_calibration(path, calibration_file())
+    before = path.read_bytes()
+    other = CalibrationFile((calibration_entry(rms=0.5),))
+    monkeypatch.setattr(calfile, "load_calibration", lambda _tmp: other)  # the disk gave back other bytes
+    with pytest.raises(CalibrationError, match="the written file reads back differently"):
+        write_calibration(path, calibration_file())
+    assert path.read_bytes() == before and os.listdir(tmp_path) == ["calib.json"]

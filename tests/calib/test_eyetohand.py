@@ -14,10 +14,10 @@ from cell.calib.eyetohand import (
     reprojection_fixed,
     solve_eye_to_hand,
 )
-from cell.calib.handeye import HandEyeData
+from cell.calib.handeye import HandEyeData, project
 from cell.calib.overhead import solve_overhead
 from cell.calib.refine import refine_eye_to_hand
-from cell.calib.transforms import pose_error, transform_from_rvec
+from cell.calib.transforms import invert, make_transform, pose_error, transform_from_rvec
 from cell.errors import CalibrationError
 from tests.calib.synthetic import C_TRUE, G_TRUE, K_FIXED, PLATE, SIZE, fixed_views
 
@@ -100,3 +100,21 @@ def test_bad_inputs_are_calibration_errors(exact):
         solve_eye_to_hand(_data(exact), method="PARK")
     with pytest.raises(CalibrationError, match="terms must be one of"):
         refine_eye_to_hand(_data(exact), C_TRUE, terms=3)
+
+
+def test_views_that_turn_about_one_axis_only_are_refused_and_name_the_tilt_key():
+    # the board only spins about its normal: AX = ZB has no unique answer, and without the
+    # check a method answers anyway (LI: 180 deg off the truth)
+    obj = PLATE.object_points()
+    centre = obj.mean(axis=0)
+    flanges, corners, poses = [], [], []
+    for i, a in enumerate(np.radians([-50, -25, 0, 20, 45, 60])):
+        R = transform_from_rvec([0.0, 0.0, a], np.zeros(3))[:3, :3]
+        T_camera_board = make_transform(R, np.array([0.01 * i - 0.02, 0.005 * i, 0.25]) - R @ centre)
+        flanges.append(C_TRUE @ T_camera_board @ invert(G_TRUE))
+        poses.append(T_camera_board)
+        corners.append(project(obj @ R.T + T_camera_board[:3, 3], K_FIXED, np.zeros(5)))
+    data = HandEyeData(obj, np.array(corners), np.array(flanges), np.array(poses), K_FIXED, np.zeros(5))
+    with pytest.raises(CalibrationError, match=r"eye-to-hand: the views turn about one axis only.*"
+                                               r"calibration\.overhead_tilt"):
+        compare_eye_to_hand(data)

@@ -169,3 +169,15 @@ def test_opencvs_untouched_start_is_no_solution(exact, monkeypatch):
     monkeypatch.setattr(cv2, "calibrateHandEye", lambda *a, **k: (np.eye(3), np.zeros((3, 1))))
     with pytest.raises(CalibrationError, match="method TSAI failed in OpenCV"):
         solve_hand_eye(_data(exact), method="TSAI")
+
+
+@pytest.mark.parametrize("terms", [0, 2, 4])
+def test_the_distortion_terms_not_asked_for_stay_zero(terms):
+    # noisy corners: a coefficient left free would soak up noise (terms=2 with the tangential
+    # ones freed gave p1, p2 = -6e-4, 1.3e-3)
+    v = views(12, seed=6, dist=np.array([-0.2, 0.05, 0.0, 0.0, 0.0]), noise_px=0.3)
+    dist = calibrate_intrinsics(list(v["corners"]), BOARD, SIZE, terms=terms).dist
+    assert dist.shape == (5,)
+    assert np.all(dist[terms:] == 0.0)
+    if terms:
+        assert dist[0] == pytest.approx(-0.2, abs=0.02)

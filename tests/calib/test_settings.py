@@ -58,3 +58,10 @@ def test_the_plan_is_seeded_and_diverse():
         centre = cam[:3, :3] @ np.asarray(c.board_position) + cam[:3, 3]
         assert c.distance[0] - 1e-9 <= np.linalg.norm(centre) <= c.distance[1] + 0.03
         assert np.hypot(centre[0], centre[1]) < 0.025
+
+
+def test_the_views_roll_both_ways_within_max_roll():
+    c = scenario_from_dict({"calibration": {"max_roll": 20.0}}).calibration
+    rolls = np.array([p.roll_deg for p in plan_views(c, np.random.default_rng(3), count=30)])
+    assert np.abs(rolls).max() <= 20.0 + 1e-9 and np.abs(rolls).max() > 15.0
+    assert rolls.min() < -10.0 and rolls.max() > 10.0

@@ -119,3 +119,21 @@ def test_an_optional_first_parameter_keeps_its_default_unless_named_settings(fak
     # (min_area=60 was given the VisionSettings: any positional parameter took them)
     assert fake(_Tunable).detector.min_area == 60
     assert isinstance(fake(_OptionalSettings).detector.settings, VisionSettings)
+
+
+@pytest.mark.parametrize(("returned", "culprit"), [
+    # v past the height
+    ([dataclasses.replace(GOOD, centroid=(32.0, 60.0))], "outside the 64x48 image"),
+    ([dataclasses.replace(GOOD, centroid=(-0.5, 24.0))], "outside the 64x48 image"),
+    ([dataclasses.replace(GOOD, material_confidence=1.5)],
+     "material_confidence must be a finite number in 0..1"),
+    ([dataclasses.replace(GOOD, kind_confidence=1.2)], "kind_confidence must be a finite number in 0..1"),
+    ([dataclasses.replace(GOOD, kind_confidence=-0.1)], "kind_confidence must be a finite number in 0..1"),
+    ([dataclasses.replace(GOOD, size=(-0.02, 0.02))], "size must be two finite numbers, each >= 0"),
+    ([dataclasses.replace(GOOD, id=-1)], "id must be a whole number >= 0"),
+    ([dataclasses.replace(GOOD, symmetry=-2)], "symmetry must be a whole number >= 0"),
+])
+def test_out_of_range_fields_of_a_detection_are_refused(fake, returned, culprit):
+    with pytest.raises(JobError, match="vision.detector 'fake_detectors:Detector'") as info:
+        fake(_returning(returned)).detect(IMAGE, None)
+    assert culprit in str(info.value)

@@ -3,7 +3,10 @@ than reading a missing reference as a failure (rows made by hand, no runs)."""
 
 from __future__ import annotations
 
+import pytest
+
 from cell.sweep.reports import compression, generic, lighting, matching
+from cell.sweep.reports.threshold import band
 
 
 def _jpeg(quality: int) -> dict:
@@ -117,3 +120,13 @@ def test_the_smoothing_plot_names_the_line_styles_as_drawn(monkeypatch):
              "position_error_mm_mean": 0.1} for f in ("median", "gaussian") for n in (0, 1)]
     smoothing.build(rows, None)
     assert figures[0].axes[0].get_xlabel() == "filter passes (solid: median 5x5, dashed: gaussian 5x5)"
+
+
+@pytest.mark.parametrize(("recalls", "expected"), [
+    ([0.95, 1.0, 0.92, 0.5, 0.95], (0, 2)),    # reaches the first threshold; stops at the dip
+    ([0.3, 0.85, 1.0, 0.91, 0.89], (2, 3)),    # 90 % of the best, not less
+    ([None, 0.0, 0.6, None], (2, 2)),
+    ([None, 0.0], None),                       # nothing found anywhere
+])
+def test_the_band_is_the_run_around_the_best_recall_within_90_percent(recalls, expected):
+    assert band(recalls) == expected

@@ -193,3 +193,12 @@ def test_bench_with_no_name_prints_usage_to_stderr_and_exits_2():
     assert r.stderr.startswith("usage: cell bench ") and "error: name a benchmark" in r.stderr
     r = _cell("bench", "fly")
     assert r.returncode == 2 and r.stdout == "" and "valid: render, vision, pick" in r.stderr
+
+
+def test_vision_recall_is_found_over_found_and_missed():
+    stats = {"front": Tally(n=8, material_ok=6, kind_ok=7, false=5, missed=2, latency=[0.004],
+                            render=[0.002], per_part=[0.001])}
+    row = summarise(stats, scenes=1, seed_base=0, parts=10)["presets"]["front"]
+    assert row["recall"] == pytest.approx(0.8)  # 8 of the 10 parts; the 5 false ones do not count
+    assert row["material_accuracy"] == pytest.approx(0.75) and row["kind_accuracy"] == pytest.approx(0.875)
+    assert row["false"] == 5 and row["missed"] == 2

@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from cell.calib.calfile import load_calibration
 from cell.calib.job import run_calibration
+from cell.calib.report import CameraTruth, format_camera, score_camera
+from cell.calib.touch import TouchResult
 from cell.cli import main as cell_main
 from cell.scenario import scenario_from_dict
 
@@ -156,3 +159,52 @@ def test_the_printed_report_warns_when_the_lens_model_does_not_fit(run):
     misfit["intrinsics"]["reproj_rms_px"] = 1.16  # a decentred lens with 2 terms (p1 = p2 = 0.05)
     text = format_camera("overhead", misfit)
     assert "warning: over 0.3 px" in text and "overhead_distortion_terms = 4" in text
+
+
+def test_the_file_holds_the_rms_of_the_intrinsics_it_holds(run):  # noqa: F811
+    cam, res = run.calibration.camera("overhead"), run.results["overhead"]
+    if res.kept == "refined" and res.refinement.free_intrinsics:
+        assert cam.rms == res.refinement.rms_px and cam.rms != res.intrinsics.rms
+    else:
+        assert cam.rms == res.intrinsics.rms
+
+
+def _K(fx, fy, cx, cy):
+    return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
+def test_the_report_scores_estimate_minus_truth_the_worst_touch_and_the_chain_ratio():
+    T = np.eye(4)
+    result = SimpleNamespace(
+        intrinsics=SimpleNamespace(K=_K(505.0, 495.0, 322.0, 237.0), dist=np.array([-0.21, 0, 0, 0, 0]),
+                                   rms=0.1, view_rms=[0.09, 0.11]),
+        used=(0, 1, 2), rejected=1,
+        hand_eye=[SimpleNamespace(method="SHAH", T_flange_camera=T, consistency_px=0.5)],
+        refinement=SimpleNamespace(T_flange_camera=T, rms_px=0.15), chosen="SHAH", kept="refined",
+        capture=SimpleNamespace(views=(1, 2, 3, 4), unreachable=0, blocked=0),
+        detections=(SimpleNamespace(detector="sb"),) * 3 + (None,))
+    truth = CameraTruth(_K(500.0, 500.0, 320.0, 240.0), np.array([-0.2, 0, 0, 0, 0]), "T_flange_camera", T)
+    z = np.zeros((3, 3))
+    touch = TouchResult(z, np.array([[0.001, 0, 0], [0.004, 0, 0], [0.002, 0, 0]]), z, corner_ids=(0, 1, 2))
+    rep = score_camera(result, truth, touch)
+    i = rep["intrinsics"]
+    assert i["fx_rel_err"] == pytest.approx(0.01) and i["fy_rel_err"] == pytest.approx(-0.01)
+    assert i["cx_err_px"] == pytest.approx(2.0) and i["cy_err_px"] == pytest.approx(-3.0)
+    assert i["k1_rel_err"] == pytest.approx(0.05)
+    assert rep["touch_err_mm"] == pytest.approx(4.0)  # the worst of the three, not their mean
+    assert rep["touch"]["errors_mm"] == pytest.approx([1.0, 4.0, 2.0])
+    assert rep["hand_eye"]["chain_to_pixel_rms"] == pytest.approx(1.5)  # chain RMS over pixel RMS
+
+
+def test_the_printed_report_counts_the_blocked_touches():
+    h = {"SHAH": {"rot_err_deg": 0.01, "trans_err_mm": 0.1, "consistency_px": 0.2}, "chosen": "SHAH",
+         "kept": "SHAH", "chain_to_pixel_rms": 3.0}
+    i = {"fx_rel_err": 0.0, "fy_rel_err": 0.0, "cx_err_px": 0.0, "cy_err_px": 0.0, "k1": 0.0,
+         "k1_true": 0.0, "k1_rel_err": None, "reproj_rms_px": 0.05, "view_rms_px": [0.05],
+         "views_used": 5, "views_rejected": 0}
+    report = {"pose": "T_flange_camera", "intrinsics": i, "hand_eye": h, "touch_err_mm": 9.0,
+              "capture": {"unreachable": 0, "blocked": 0, "views": 5, "detectors": []},
+              "touch": {"corners": [0, 1, 2], "errors_mm": [9.0, 1.0, 1.0], "blocked": [True, False, False]},
+              "intrinsics_held": "calibrateCamera"}
+    text = format_camera("wrist", report)
+    assert "short of 1 of its 3 points" in text

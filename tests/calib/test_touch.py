@@ -4,19 +4,23 @@ into the board when the calibration puts the board too low (guarded touches)."""
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import mujoco
 import numpy as np
 import pytest
 
+import cell.calib.touch as touch_module
+import cell.vision.detector as detector_module
 from cell.calib.board import Board
 from cell.calib.calfile import CameraCalibration
 from cell.calib.capture import Rig
-from cell.calib.touch import TOUCH_STANDOFF, TouchResult, touch_test, touch_view
+from cell.calib.touch import TOUCH_STANDOFF, PartTouchResult, TouchResult, touch_parts, touch_test, touch_view
 from cell.calib.transforms import invert, make_transform
 from cell.cli import main as cell_main
 from cell.scenario import scenario_from_dict
 from cell.sim.fixtures import target_corners_world
+from cell.sim.layout import CONVEYOR_Y
 
 
 def _touch_with_camera_off_by(world_factory, depth: float) -> TouchResult:
@@ -81,3 +85,30 @@ def test_cli_with_joint_noise_writes_the_calibration_and_the_touch_error(tmp_pat
     text = capsys.readouterr().out
     assert "touch test: corners" in text and "warning: the cup met something short of" in text
     assert sum(wrist["touch"]["blocked"]) >= 1
+
+
+def test_the_overhead_touch_test_touches_the_most_confident_parts_and_locates_them_on_the_belt(monkeypatch):
+    # three detections of known kinds on the belt, one touch wanted: the most confident is
+    # touched (a spurious, unsure one must not be); its truth is the nearest true point
+    dets = [SimpleNamespace(position=(0.40, CONVEYOR_Y), kind="washer", kind_confidence=0.3),
+            SimpleNamespace(position=(0.50, CONVEYOR_Y + 0.01), kind="washer", kind_confidence=0.9),
+            SimpleNamespace(position=(0.60, CONVEYOR_Y), kind="hex_nut", kind_confidence=0.6)]
+
+    class FakeDetector:
+        def __init__(self, vision):
+            pass
+
+        def detect(self, image, camera):
+            return list(dets)
+
+    monkeypatch.setattr(detector_module, "PartDetector", FakeDetector)
+    monkeypatch.setattr(touch_module, "_touch", lambda rig, target, yaw, what: (np.asarray(target), False))
+    rig = SimpleNamespace(hold_and_look=lambda name: (np.zeros((4, 4, 3), np.uint8), None))
+    camera = SimpleNamespace(name="overhead", pose_name="T_base_camera", camera_model=lambda: None)
+    # true touch points: z 0.3 m off the target's (a mistaken kind's height): the belt figure ignores it
+    truth = np.array([[0.503, CONVEYOR_Y + 0.014, 0.3], [0.401, CONVEYOR_Y, 0.3]])
+    res = touch_parts(rig, camera, vision=None, parts=1, true_points=truth)
+    assert isinstance(res, PartTouchResult)
+    assert res.kinds == ("washer",) and np.allclose(res.targets[0, :2], [0.50, CONVEYOR_Y + 0.01])
+    assert np.allclose(res.truth, truth[:1])
+    assert np.allclose(res.located_mm, [5.0])  # 3 mm along, 4 mm across the belt; not the height

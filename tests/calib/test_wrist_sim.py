@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 from cell.calib.calfile import CalibrationFile, CameraCalibration, load_calibration, write_calibration
 from cell.calib.job import run_calibration
+from cell.calib.wrist import MODEL_RATIO, keep_refinement
 from cell.cli import main as cell_main
 from cell.scenario import scenario_from_dict
 
@@ -132,3 +134,18 @@ def test_progress_is_shown_only_on_a_terminal():
     show(2, 2, "tilt 20.0 deg")
     assert term.getvalue() == ("\rcalibrate: view 1/2 (tilt 10.0 deg)\x1b[K"
                                "\rcalibrate: view 2/2 (tilt 20.0 deg)\x1b[K\n")
+
+
+def _keep(intrinsic_rms: float, closed_form: float, refined: float) -> bool:
+    return keep_refinement(SimpleNamespace(rms=intrinsic_rms), SimpleNamespace(consistency_px=closed_form),
+                           SimpleNamespace(rms_px=refined))
+
+
+def test_the_refinement_is_kept_only_when_better_than_the_closed_form_and_near_the_pixel_rms():
+    assert MODEL_RATIO == 2.0
+    assert _keep(0.1, 0.5, 0.15)  # better than the closed form, within 2x the pixel RMS
+    assert _keep(0.1, 0.5, 0.2)  # at 2x: kept
+    assert not _keep(0.1, 0.5, 0.25)  # over 2x the pixel RMS: the joint readings are noisy
+    assert not _keep(0.1, 0.5, 0.4)
+    assert not _keep(0.1, 0.12, 0.15)  # within 2x but worse than the closed form
+    assert not _keep(0.1, 0.15, 0.15)  # no better: not kept

@@ -3,14 +3,19 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from cell.errors import JobError
+from cell.jobs.sort import overhead_model
+from cell.scenario import scenario_from_dict
 
 ROOT = Path(__file__).parents[2]
 
@@ -251,3 +256,30 @@ def test_a_polite_kill_leaves_the_folder_as_it_was(tmp_path):
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 143 and stderr.splitlines() == ["cell run: terminated"], stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def _calibration_with_fovy(fovy_deg: float, height: int = 480, width: int = 640):
+    fy = height / (2 * math.tan(math.radians(fovy_deg) / 2))
+    model = SimpleNamespace(width=width, height=height, K=np.array([[fy, 0, width / 2], [0, fy, height / 2],
+                                                                    [0, 0, 1.0]]))
+    cam = SimpleNamespace(camera_model=lambda: model)
+    return SimpleNamespace(names=("overhead",), camera=lambda name: cam)
+
+
+def test_a_calibrated_field_of_view_more_than_2_percent_off_is_another_lens():
+    scenario = scenario_from_dict({})
+    fovy, size = scenario.camera.fovy, (scenario.camera.width, scenario.camera.height)
+    ok = _calibration_with_fovy(fovy * 1.015, height=size[1], width=size[0])
+    assert overhead_model(ok, scenario, where="cal.json").height == size[1]
+    for off in (1.03, 0.97, 1.05):
+        bad = _calibration_with_fovy(fovy * off, height=size[1], width=size[0])
+        with pytest.raises(JobError, match="vertical field of view"):
+            overhead_model(bad, scenario, where="cal.json")
+
+
+def test_the_wall_time_fractions_are_fractions_of_the_run(demo):
+    out, r = demo
+    assert r.returncode == 0, r.stderr
+    fractions = json.loads((out / "report.json").read_text())["wall_time_fractions"]
+    assert fractions and all(0.0 <= v <= 1.0 for v in fractions.values()), fractions
+    assert sum(fractions.values()) == pytest.approx(1.0, abs=0.05), fractions

@@ -7,10 +7,12 @@ calibration shared: the job acts on it, never on the simulator's camera.
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
-from cell.jobs.score import OUTCOMES
+from cell.jobs.loop import SortLoop
+from cell.jobs.score import OUTCOMES, PickRecord
 from cell.jobs.sort import run_sort
 from cell.scenario import load_scenario
 
@@ -243,3 +245,21 @@ def test_run_sort_names_an_argument_of_the_wrong_type():
         run_sort({"seed": 1})
     with pytest.raises(JobError, match="argument 'calibration': expected a CalibrationFile"):
         run_sort(load_scenario(SCENARIOS / "sort.toml"), calibration=42)
+
+
+def _verify(encoder_now: float, seen_at: tuple[float, float]) -> bool:
+    record = PickRecord(1, 0.0, {"position": [0.50, 0.0]}, "steel", encoder=0.10)
+    events = []
+    job = SimpleNamespace(_to_verify=record, world=SimpleNamespace(belt_encoder=lambda: encoder_now),
+                          _event=lambda text, level="info": events.append(text))
+    SortLoop._verify(job, SimpleNamespace(detections=[SimpleNamespace(position=seen_at)]))
+    assert job._to_verify is None
+    return record.verified
+
+
+def test_the_spot_checked_after_a_pick_moves_on_with_the_belt():
+    # the belt ran 50 mm since the pick's image: the part, not picked, is now 50 mm further on
+    assert _verify(0.15, (0.55, 0.0)) is False
+    assert _verify(0.15, (0.50, 0.0)) is True  # something where the part was: another part
+    assert _verify(0.15, (0.55, 0.02)) is True  # 20 mm across the belt: another part
+    assert _verify(0.10, (0.505, 0.005)) is False  # belt stood (index mode): within 8 mm

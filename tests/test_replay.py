@@ -14,7 +14,7 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from cell.errors import CellError
-from cell.replay import Replay, _box_size, recording_id
+from cell.replay import Replay, _box_size, _boxes, recording_id
 from cell.vision import PartDetector
 
 
@@ -245,3 +245,14 @@ def test_log_capture_takes_detections_of_other_detectors(tmp_path, scene, strict
     ents = _entities(tmp_path / "r.rrd")
     assert "/truth/segmentation" not in ents
     assert "Boxes2D:labels" in ents["/world/overhead_camera/detections"]
+
+
+def test_a_detection_box_is_labelled_with_its_weaker_confidence():
+    """The label's confidence is the lower of kind's and material's: a bolt sure of its
+    kind (0.9) but not of its material (0.4) must not read as a confident detection."""
+    dets = [SimpleNamespace(centroid=(10.0, 20.0), kind="bolt", material="metal", kind_confidence=0.9,
+                            material_confidence=0.4),
+            SimpleNamespace(centroid=(30.0, 40.0), kind="washer", material="plastic", kind_confidence=0.55,
+                            material_confidence=0.8, partial=True)]
+    boxes = _boxes(dets, None, 0.08)  # (no size: the fixed box, no camera needed)
+    assert boxes.labels.as_arrow_array().to_pylist() == ["bolt metal 0.40", "washer plastic 0.55 partial"]

@@ -102,3 +102,64 @@ def test_a_set_key_the_bench_sets_itself_is_refused(capsys, setting, owner):
         calib.main(["--quick", "--set", setting])
     assert info.value.code == 2
     assert f"is set by {owner} in this benchmark" in capsys.readouterr().err
+
+
+def _good_row(**figures) -> dict:
+    """One seed's figures, all within the bars, changed by ``figures``."""
+    row = {"focal_rel_err": 0.0005, "reproj_rms_px": 0.05, "hand_eye_rot_deg": 0.01,
+           "hand_eye_trans_mm": 0.1, "touch_err_mm": 0.2, "k1_rel_err": 0.01, "wall_s": 1.0,
+           "methods": {"SHAH": {"rot_deg": 0.01, "trans_mm": 0.1}}, "kept": "SHAH"}
+    return {**row, **figures}
+
+
+def test_k1_is_held_to_its_bar_only_when_the_lens_distorts():
+    rows = [_good_row(), _good_row(k1_rel_err=0.08)]
+    distorted = calib._summary(rows, distorted=True)
+    assert distorted["meets_required"] is False
+    assert distorted["failures"] == ["k1_rel_err 0.08 > 0.05"]
+    assert calib._summary(rows, distorted=False)["meets_required"] is True
+    no_k1 = calib._summary([_good_row(k1_rel_err=None)], distorted=True)
+    assert no_k1["failures"] == ["k1_rel_err: no figure"]
+
+
+def test_one_failing_set_up_fails_the_whole_bench(monkeypatch):
+    """The verdict is every set-up's, every camera's: the distortion set-up alone
+    missing the focal bar makes ``meets_required`` false."""
+    import cell.calib.job as job
+
+    def fake(scenario, *, camera):
+        err = 0.01 if scenario.sensor.distortion[0] else 0.0005  # 1 % > 0.2 % with distortion only
+        k = {"fx_rel_err": err, "fy_rel_err": err, "k1_rel_err": 0.01, "reproj_rms_px": 0.05,
+             "views_used": 20}
+        cams = {n: {"intrinsics": k, "intrinsics_held": "calibrateCamera", "touch_err_mm": 0.1,
+                    "wall_s": 1.0, "hand_eye": {"SHAH": {"rot_err_deg": 0.01, "trans_err_mm": 0.1},
+                                                "chosen": "SHAH", "kept": "SHAH"}}
+                for n in ("wrist", "overhead")}
+
+        class Run:
+            report = {"cameras": cams}
+        return Run()
+
+    monkeypatch.setattr(job, "run_calibration", fake)
+    out = calib.run(seeds=1, seed_base=1000, poses=7)
+    verdicts = {name: [c["summary"]["meets_required"] for c in s["cameras"].values()]
+                for name, s in out["setups"].items()}
+    assert verdicts == {"default": [True, True], "distortion": [False, False],
+                        "joint_noise": [True, True]}
+    assert out["meets_required"] is False
+
+
+def test_the_focal_error_is_that_of_the_intrinsics_the_file_holds():
+    """When the file holds the refined intrinsics, their error is the one scored."""
+    first = {"fx_rel_err": 0.01, "fy_rel_err": 0.01, "k1_rel_err": 0.1, "reproj_rms_px": 0.05,
+             "views_used": 20}
+    refined = {"fx_rel_err": 0.0004, "fy_rel_err": -0.0006, "k1_rel_err": -0.02}
+    report = {"intrinsics": first, "intrinsics_refined": refined, "intrinsics_held": "refined",
+              "touch_err_mm": 0.1, "wall_s": 1.0,
+              "hand_eye": {"SHAH": {"rot_err_deg": 0.01, "trans_err_mm": 0.1},
+                           "chosen": "SHAH", "kept": "SHAH"}}
+    row = calib._row(report)
+    assert row["focal_rel_err"] == 0.0006 and row["k1_rel_err"] == 0.02
+    assert row["reproj_rms_px"] == 0.05 and row["intrinsics_held"] == "refined"
+    held_first = calib._row({**report, "intrinsics_held": "calibrateCamera"})
+    assert held_first["focal_rel_err"] == 0.01 and held_first["k1_rel_err"] == 0.1

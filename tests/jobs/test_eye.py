@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from cell.jobs.eye import Eye, is_black, merge_materials
 from cell.scenario import scenario_from_dict
@@ -75,3 +76,52 @@ def test_second_opinion_of_a_black_frame_is_none():
     scenario = scenario_from_dict({})
     eye = Eye(_World(dark="coaxial"), camera=None, detector=_Detector(), scenario=scenario)
     assert eye.second_opinion(_det(0.0, 0.45), "coaxial") is None
+
+
+class _LitWorld(_World):
+    """Grey level 200 under ``back``, 100 otherwise; black for the first ``black`` renders;
+    counts the physics steps taken between retakes."""
+
+    def __init__(self, black: int = 0) -> None:
+        super().__init__()
+        self.black, self.steps, self.time = black, 0, 0.0
+        self.model = type("M", (), {"opt": type("O", (), {"timestep": 0.002})()})()
+
+    def step(self, n: int) -> None:
+        self.steps += n
+        self.time += n * 0.002
+
+    def render(self, camera: str, *, depth: bool, seg: bool) -> _Frame:
+        if self.black > 0:
+            self.black -= 1
+            return _Frame(np.zeros((48, 64, 3), np.uint8))
+        return _Frame(np.full((48, 64, 3), 200 if self.lighting_name == "back" else 100, np.uint8))
+
+
+class _SilhouetteDetector:
+    """Under the back light: the outline at (0, 0.45), material unknown; under the front
+    light: the same part seen 3 mm off, plastic."""
+
+    def detect(self, image: np.ndarray, camera: object) -> list:
+        if image.mean() > 150:
+            return [_det(0.0, 0.45, "unknown", 0.0)]
+        return [_det(0.003, 0.45, "plastic", 0.97)]
+
+
+def test_a_back_and_front_look_takes_the_outline_from_back_and_the_material_from_front():
+    scenario = scenario_from_dict({"capture": {"presets": ["back", "front"]}})
+    capture = Eye(_LitWorld(), camera=None, detector=_SilhouetteDetector(), scenario=scenario).look()
+    (d,) = capture.detections
+    assert list(capture.images) == ["back", "front"]
+    assert d.position == (0.0, 0.45) and (d.material, d.material_confidence) == ("plastic", 0.97)
+
+
+def test_a_black_frame_is_retaken_sort_retakes_times():
+    scenario = scenario_from_dict({"sort": {"retakes": 2, "retake_wait": 0.1}})
+    world = _LitWorld(black=2)  # two black frames, then a picture: the second retake sees it
+    capture = Eye(world, camera=None, detector=_SilhouetteDetector(), scenario=scenario).look()
+    assert capture is not None and capture.retakes == 2 and world.steps == 2 * 50
+    assert capture.t == pytest.approx(0.2)
+    world = _LitWorld(black=3)  # three: every retake black
+    assert Eye(world, camera=None, detector=_SilhouetteDetector(), scenario=scenario).look() is None
+    assert world.steps == 2 * 50

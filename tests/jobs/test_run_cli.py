@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from cell.errors import JobError
+from cell.jobs import run
 from cell.jobs.sort import overhead_model
 from cell.scenario import scenario_from_dict
 
@@ -283,3 +284,17 @@ def test_the_wall_time_fractions_are_fractions_of_the_run(demo):
     fractions = json.loads((out / "report.json").read_text())["wall_time_fractions"]
     assert fractions and all(0.0 <= v <= 1.0 for v in fractions.values()), fractions
     assert sum(fractions.values()) == pytest.approx(1.0, abs=0.05), fractions
+
+
+def test_detections_png_goes_beside_the_report_whatever_folder_the_replay_is_in(tmp_path):
+    (tmp_path / "reports").mkdir()
+    (tmp_path / "replays").mkdir()
+    args = run._parser().parse_args(["s.toml", "--report", str(tmp_path / "reports" / "r.json"),
+                                     "--replay", str(tmp_path / "replays" / "r.rrd")])
+    outputs = run._outputs(args)
+    assert outputs.image.path == tmp_path / "reports" / "detections.png"
+    assert outputs.calibration.path == tmp_path / "reports" / "r.calibration.json"
+    only_replay = run._outputs(run._parser().parse_args(
+        ["s.toml", "--replay", str(tmp_path / "replays" / "r.rrd")]))
+    assert only_replay.image.path == tmp_path / "replays" / "detections.png"
+    assert only_replay.calibration is None and only_replay.report is None

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
 from cell.catalogue import MATERIALS
 from cell.errors import SimError
+from cell.jobs.settings import FaultSettings
 from cell.scenario import scenario_from_dict
+from cell.sim.faults import DROP_AFTER, FaultInjector
 from cell.sim.world import World
 
 
@@ -90,3 +93,82 @@ def test_run_until_part_at_pick_takes_finite_times(world_factory, kwargs, culpri
     world = world_factory(parts={"count": 1})
     with pytest.raises(SimError, match=f"run_until_part_at_pick: {culprit} must be a finite time"):
         world.run_until_part_at_pick(**kwargs)
+
+
+def test_a_fault_span_is_start_and_duration():
+    """``blackout = [10.4, 1.0]`` darkens 10.4 s to 11.4 s (not 1.0 s to 10.4 s, nor never)."""
+    model = mujoco.MjModel.from_xml_string("<mujoco/>")
+    faults = FaultInjector(model, mujoco.MjData(model),
+                           FaultSettings(blackout=(10.4, 1.0), conveyor_stop=(0.2, 1.8)))
+    assert [faults.camera_dark(t) for t in (0.5, 10.3, 10.4, 11.0, 11.39, 11.4)] == [
+        False, False, True, True, True, False]
+    assert [faults.belt_stopped(t) for t in (0.1, 0.2, 1.9, 2.0)] == [False, True, True, False]
+    assert not FaultInjector(model, mujoco.MjData(model), FaultSettings()).camera_dark(0.0)
+
+
+def test_a_drop_grasp_loses_its_part_drop_after_metres_from_where_it_sealed(world_factory):
+    world = world_factory(arm=True, parts={"count": 1})
+    model, data = world.model, world.data
+    act, tcp = model.actuator("arm/suction").id, model.site("arm/tcp").id
+    gain = float(model.actuator_gainprm[act, 0])
+    faults = FaultInjector(model, data, FaultSettings(drop=(2,)))
+
+    def step(open_: bool, dx: float = 0.0) -> bool:  # True while the vacuum holds
+        data.ctrl[act] = 1.0 if open_ else 0.0
+        data.site_xpos[tcp] = [0.1 + dx, 0.4, 0.3]
+        faults.step()
+        return bool(model.actuator_gainprm[act, 0] == gain)
+
+    assert step(True) and step(True, 0.5) and step(False)  # grasp 1 holds all the way
+    assert step(True) and step(True, 0.6 * DROP_AFTER) and step(True, 0.95 * DROP_AFTER)
+    assert not step(True, 1.05 * DROP_AFTER)  # grasp 2 lets go past DROP_AFTER
+    assert faults.grasps == 2 and DROP_AFTER == 0.15
+
+
+def test_place_of_tells_a_bin_from_the_table_just_beside_it(world_factory):
+    """GROUND TRUTH for scoring: a part inside the metal bin is ``metal``; one on the table
+    4 cm past the bin's inner edge (bins are 16 cm inside) is ``elsewhere``; on the belt, ``belt``."""
+    from cell.sim import layout
+
+    world = world_factory(parts={"count": 4, "kinds": ["washer"]}, conveyor={"speed": 0.0})
+    cx, cy, _ = layout.BINS["metal"]
+    inside = world.place_next_part(float(cx) + 0.05, float(cy), 0.0)
+    beside = world.place_next_part(float(cx) + layout.BIN_SIZE[0] / 2 + 0.04, float(cy), 0.0)
+    past_y = world.place_next_part(float(cx), float(cy) - layout.BIN_SIZE[1] / 2 - 0.04, 0.0)
+    on_belt = world.place_next_part(float(layout.PICK_ZONE[0]), layout.CONVEYOR_Y, 0.0)
+    assert [world.place_of(p.id) for p in (inside, beside, past_y, on_belt)] == [
+        "metal", "elsewhere", "elsewhere", "belt"]
+
+
+def test_the_belt_encoder_counts_tenths_of_a_millimetre(world_factory):
+    world = world_factory(parts={"count": 1}, conveyor={"speed": 0.137, "mode": "continuous"})
+    readings = []
+    for _ in range(20):
+        world.step(3)
+        readings.append((world.belt_encoder(), world.conveyor.travel))
+    for reading, travel in readings:
+        assert abs(reading - travel) <= 0.5e-4 + 1e-12
+        assert abs(reading / 1e-4 - round(reading / 1e-4)) < 1e-6
+    assert readings[-1][0] > readings[0][0] > 0
+
+
+def test_a_flipped_bolt_stands_on_its_head_and_a_bracket_on_its_edge():
+    """faults.flipped: a bolt's x axis (shaft towards +x, head at -x) points up, so the head
+    is underneath; an L bracket's y axis points up; other parts lie upside down. The yaw
+    turns them about the vertical."""
+    from cell.catalogue import KINDS
+    from cell.sim.faults import flip_quat, flipped_half_height
+
+    def axis_after(kind: str, axis: int, yaw: float = 0.0) -> np.ndarray:
+        out = np.zeros(3)
+        mujoco.mju_rotVecQuat(out, np.eye(3)[axis], flip_quat(kind, yaw))
+        return out
+
+    assert np.allclose(axis_after("bolt", 0), [0, 0, 1])
+    assert np.allclose(axis_after("bolt", 0, yaw=1.0), [0, 0, 1])
+    assert np.allclose(axis_after("l_bracket", 1), [0, 0, 1])
+    assert np.allclose(axis_after("hex_nut", 2), [0, 0, -1])
+    assert np.allclose(axis_after("washer", 0, yaw=np.pi / 2), [0, 1, 0], atol=1e-9)
+    assert flipped_half_height("bolt") == KINDS["bolt"].length / 2
+    assert flipped_half_height("l_bracket") == KINDS["l_bracket"].width / 2
+    assert flipped_half_height("disc") == KINDS["disc"].height / 2

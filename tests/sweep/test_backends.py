@@ -11,11 +11,15 @@ import subprocess
 import sys
 import time
 import types
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import pytest
 
 from cell.errors import JobError
+from cell.sweep import local
+from cell.sweep.errors import SweepError
 from cell.sweep.plan import plan_sweep
 from cell.sweep.runner import SweepOptions, run_plan
 from cell.sweep.spec import load_sweep
@@ -249,3 +253,82 @@ def test_ray_leaves_the_callers_process_as_it_was(monkeypatch):
     with RayPool(1):
         assert signal.getsignal(signal.SIGTERM) is term  # (the command's own, meanwhile too)
     assert dict(os.environ) == env and sys.excepthook is hook
+
+
+class _FakeExecutor:
+    """Stands in for the process pool: each submit is answered at once, by ``answer``."""
+
+    def __init__(self, answer, log):
+        self.answer, self.log = answer, log
+
+    def submit(self, fn, chunk, threads):
+        self.log.append(("submit", chunk.job))
+        future = Future()
+        result = self.answer(chunk)
+        if isinstance(result, BaseException):
+            future.set_exception(result)
+        else:
+            future.set_result(result)
+        return future
+
+    def shutdown(self, wait=True, cancel_futures=False):
+        self.log.append(("shutdown", wait))
+
+
+def _chunks(n):
+    return [Chunk(f"c{i}", (Task(f"r{i}", None, None),)) for i in range(n)]
+
+
+def _pool(monkeypatch, answer, workers=3):
+    log = []
+    pool = local.LocalPool(workers)
+
+    def start():
+        log.append(("start",))
+        pool._pool = _FakeExecutor(answer, log)
+        return pool._pool
+
+    monkeypatch.setattr(pool, "_start", start)
+    return pool, log
+
+
+def test_a_pool_that_keeps_breaking_is_restarted_max_restarts_times_then_stops(monkeypatch, capsys):
+    pool, log = _pool(monkeypatch, lambda chunk: BrokenProcessPool("died"))
+    with pytest.raises(SweepError, match=f"died {local.MAX_RESTARTS + 1} times"):
+        pool.run(_chunks(2), lambda outcomes: None)
+    assert sum(e == ("start",) for e in log) == 1 + local.MAX_RESTARTS == 4
+    err = capsys.readouterr().err
+    assert err.count("a worker process died") == local.MAX_RESTARTS
+    assert f"restart {local.MAX_RESTARTS} of {local.MAX_RESTARTS}" in err
+
+
+def test_two_chunks_per_worker_are_in_flight_and_every_chunk_comes_back(monkeypatch):
+    pool, log = _pool(monkeypatch, lambda chunk: (Outcome(chunk.tasks[0].run_id, {}, None),))
+    seen = []
+    pool.run(_chunks(10), lambda outcomes: (log.append(("result",)), seen.extend(outcomes)))
+    assert sorted(o.run_id for o in seen) == sorted(f"r{i}" for i in range(10))
+    first = log.index(("result",))
+    assert sum(e[0] == "submit" for e in log[:first]) == 2 * pool.workers
+
+
+def test_chunks_hold_every_run_once_at_most_chunk_runs_each_sharing_a_scene(tmp_path):
+    import tomllib
+
+    from cell.sweep.jobs import job_module
+    from cell.sweep.plan import plan_sweep
+    from cell.sweep.runner import make_chunks
+    from cell.sweep.spec import sweep_from_dict
+    from tests.sweep.helpers import TINY
+
+    plan = plan_sweep(sweep_from_dict(tomllib.loads(TINY), source=str(tmp_path / "s.toml"),
+                                      folder=tmp_path))
+    by_id = {r.run_id: r for r in plan.runs}
+    for size in (1, 2, 24):
+        chunks = list(make_chunks(list(plan.runs), chunk_runs=size))
+        ids = [t.run_id for c in chunks for t in c.tasks]
+        assert sorted(ids) == sorted(by_id) and max(len(c.tasks) for c in chunks) <= size
+        for c in chunks:  # one scene per chunk
+            keys = {job_module(c.job).scene_key(by_id[t.run_id].scenario, by_id[t.run_id].settings)
+                    for t in c.tasks}
+            assert len(keys) == 1
+    assert len(list(make_chunks(list(plan.runs), chunk_runs=24))) == 4  # 2 lights x 2 seeds

@@ -182,3 +182,41 @@ def test_a_key_nested_thousands_deep_is_one_error(tmp_path, section):
     text = f"{section}\n" + "a." * 3000 + "a = [1]\n"
     with pytest.raises(SweepError, match=r"is nested more than 16 tables deep"):
         _spec(text, tmp_path)
+
+
+def test_editing_the_base_scenario_file_makes_new_run_ids(tmp_path):
+    """A resumed sweep must not take runs made with another base scenario for finished
+    ones: a key the grid does not name (the belt's speed) changes every run id."""
+    text = '[sweep]\nbase = "base.toml"\n' + TINY.split("[sweep]\n", 1)[1]
+    (tmp_path / "base.toml").write_text("[conveyor]\nspeed = 0.1\n")
+    a = {r.run_id for r in plan_sweep(_spec(text, tmp_path)).runs}
+    assert a == {r.run_id for r in plan_sweep(_spec(text, tmp_path)).runs}
+    (tmp_path / "base.toml").write_text("[conveyor]\nspeed = 0.2\n")
+    b = plan_sweep(_spec(text, tmp_path))
+    assert {r.scenario.conveyor.speed for r in b.runs} == {0.2}
+    assert len(b.runs) == len(a) and not a & {r.run_id for r in b.runs}
+
+
+def test_a_case_does_not_inherit_the_keys_another_case_set(tmp_path):
+    """Each point starts from the base scenario: the second case (which sets neither
+    lighting nor the threshold) keeps the defaults, whatever the first case set."""
+    from cell.scenario import Scenario
+
+    text = ('[sweep]\njob = "detect"\n[[case]]\nlighting = "dim"\n"vision.threshold" = [100, 120]\n'
+            '[[case]]\n"vision.segmentation" = "otsu"\n')
+    runs = plan_sweep(_spec(text, tmp_path)).runs
+    default = Scenario()
+    assert [(r.scenario.lighting, r.scenario.vision.threshold) for r in runs] == [
+        ("dim", 100), ("dim", 120), (default.lighting, default.vision.threshold)]
+    assert runs[2].scenario.vision.segmentation == "otsu"
+    assert runs[0].scenario.vision.segmentation == default.vision.segmentation
+
+
+def test_a_case_key_replaces_the_grids_axis_of_that_key(tmp_path):
+    """A case that sets ``lighting`` (a grid axis) has one lighting axis, its own: the
+    summary lists 'lighting: 1 values', and the run count is not the grid's."""
+    spec = _spec(TINY + '\n[[case]]\nlighting = "dim"\n"vision.segmentation" = "belt"\nseeds = [7]\n',
+                 tmp_path)
+    third = spec.cases[2]
+    assert [(a.keys, len(a.values)) for a in third.axes] == [
+        (("lighting",), 1), (("vision.segmentation",), 1)]

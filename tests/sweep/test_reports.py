@@ -130,3 +130,88 @@ def test_the_smoothing_plot_names_the_line_styles_as_drawn(monkeypatch):
 ])
 def test_the_band_is_the_run_around_the_best_recall_within_90_percent(recalls, expected):
     assert band(recalls) == expected
+
+
+def test_lighting_names_the_best_and_worst_light_for_parts_found_and_position():
+    rows = [{"job": "detect", "lighting": li, "recall": recall, "kind_accuracy": 1.0,
+             "material_accuracy": 1.0, "material_unknown": 0.0, "position_error_mm_mean": err}
+            for li, recall, err in (("front", 0.9, 0.30), ("dim", 0.5, 0.80), ("raking", 1.0, 0.12))]
+    heads = lighting.build(rows, None).headlines
+    assert "detector: most parts found under raking (100%), fewest under dim (50%)" in heads
+    assert ("detector position: most precise under raking (0.12 mm mean), least under dim "
+            "(0.80 mm)") in heads
+
+
+def _jpeg_at(quality: int, classification: float = 1.0, position: float = 0.10) -> dict:
+    return {"job": "compress", "job.codec": "jpeg", "job.quality": quality, "job.chroma": "420",
+            "bytes": 20e3, "ratio": 45.0, "psnr_db": 40.0, "recall": 1.0,
+            "classification_accuracy": classification, "position_error_mm_mean": position}
+
+
+def _keeps_from(rows: list[dict]) -> str:
+    from cell.sweep.reports import compression
+
+    lossless = {**_jpeg_at(0), "job.codec": "png", "job.quality": None, "job.chroma": None, "ratio": 3.0}
+    heads = compression.build([lossless, *rows], None).headlines
+    return next(h for h in heads if h.startswith("JPEG 420"))
+
+
+def test_compression_keeps_within_2_points_and_005_mm_from_the_lowest_quality_every_higher_keeps():
+    assert "from quality 70 up" in _keeps_from(  # 0.20 mm at 50 is 0.10 mm off lossless
+        [_jpeg_at(50, position=0.20), _jpeg_at(70, position=0.13), _jpeg_at(90)])
+    assert "from quality 70 up" in _keeps_from(  # 95 % at 50 is 5 points off lossless
+        [_jpeg_at(50, classification=0.95), _jpeg_at(70, classification=0.99), _jpeg_at(90)])
+    assert "from quality 70 up" in _keeps_from(  # 30 keeps, 50 does not: from 70
+        [_jpeg_at(30), _jpeg_at(50, position=0.5), _jpeg_at(70), _jpeg_at(90)])
+    assert "loses detector accuracy even at quality 90" in _keeps_from(
+        [_jpeg_at(70), _jpeg_at(90, position=0.3)])
+
+
+def test_matching_ranges_end_at_the_first_step_under_90_percent_hits():
+    from cell.sweep.reports import matching
+
+    def row(brightness: float, hits: float, method: str = "ncc") -> dict:
+        return {"job": "match", "job.method": method, "job.brightness": brightness,
+                "job.contrast": 1.0, "job.rotation_deg": 0.0, "hit_rate": hits,
+                "peak_error_px_median": 0.5, "match_ms": 3.0}
+
+    rows = [row(0.0, 1.0), row(-40.0, 0.95), row(-80.0, 0.6), row(-120.0, 0.95),
+            row(40.0, 1.0), row(80.0, 0.8)]
+    heads = matching.build(rows, None).headlines
+    assert heads == ("ncc: 100% hits on the unchanged frame (peak error 0.50 px); >= 90 % hits for "
+                     "brightness -40 to +40, contrast x1 to x1 and turns up to 0 deg; at a 0 deg "
+                     "turn 100%",)
+
+
+def test_the_generic_report_leaves_out_parameters_that_never_change():
+    """A fixed key (2 parts in every run) is no axis: not the plot's x, not in the headline
+    or the table (it was the x axis, a numeric column before the varying light)."""
+    from cell.sweep.reports import generic
+
+    rows = [{"parts.count": 2, "lighting": li, "found": found} for li, found in (("front", 6), ("dim", 4))]
+    assert generic.varying(rows, ("parts.count", "lighting")) == ["lighting"]
+    report = generic.overview(rows, ("parts.count", "lighting"), ("found",))
+    assert report.headlines == ("found: highest 6 at lighting=front; lowest 4 at lighting=dim "
+                                "(mean over seeds).",)
+    assert "parts.count" not in report.tables[0]
+
+
+def test_summary_lists_ten_failed_runs_and_counts_the_rest(tmp_path):
+    import tomllib
+
+    from cell.sweep.plan import plan_sweep
+    from cell.sweep.reports.summary import summary_text
+    from cell.sweep.reports.table import Report
+    from cell.sweep.spec import sweep_from_dict
+    from tests.sweep.helpers import TINY
+
+    plan = plan_sweep(sweep_from_dict(tomllib.loads(TINY), source=str(tmp_path / "s.toml"),
+                                      folder=tmp_path))
+    rows = [{"run_id": r.run_id, "seed": r.scenario.seed, "lighting": r.scenario.lighting,
+             "error": f"boom {i}" if i < 11 else None} for i, r in enumerate(plan.runs)]
+    text = summary_text(plan, rows, Report(("a finding",), (), ()))
+    assert "- runs: 12 of 12 in `results.csv` (11 failed: see below)" in text
+    failed = text.split("## Runs that failed", 1)[1]
+    assert failed.count("): boom ") == 10 and "boom 10" not in failed
+    assert "- ... and 1 more (the `error` column of `results.csv`)" in failed
+    assert f"(seed {plan.runs[0].scenario.seed}, lighting = 'front'" in failed

@@ -202,3 +202,27 @@ def test_vision_recall_is_found_over_found_and_missed():
     assert row["recall"] == pytest.approx(0.8)  # 8 of the 10 parts; the 5 false ones do not count
     assert row["material_accuracy"] == pytest.approx(0.75) and row["kind_accuracy"] == pytest.approx(0.875)
     assert row["false"] == 5 and row["missed"] == 2
+
+
+def test_the_vision_bench_scores_a_part_from_30_visible_pixels():
+    """A part with 40 pixels in view that no detection matched is missed; one with 20 (a
+    sliver behind the arm's shadow, say) is not counted; a part at the image border that a
+    partial detection matched is a partial told right; a second detection of one part is false."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from cell.benchmarks.vision_score import score_frame
+
+    seg = np.zeros((48, 64), np.int32)
+    seg[10:15, 10:18] = 1  # 40 px, missed
+    seg[30:34, 30:35] = 2  # 20 px, too few to count
+    seg[0:6, 50:60] = 3  # 60 px at the top border
+    parts = [SimpleNamespace(kind="washer", material="metal", finish="steel")] * 3
+    world = SimpleNamespace(parts=parts, part_pose=lambda pid: (np.zeros(3), None),
+                            part_yaw=lambda pid: 0.0)
+    border = SimpleNamespace(centroid=(54.5, 2.5), partial=True, kind="unknown", material="metal",
+                             position=None, yaw=0.0)
+    stats = Tally()
+    score_frame(world, seg, [border, border], stats)
+    assert (stats.missed, stats.n, stats.partial_ok, stats.false) == (1, 0, 1, 1)

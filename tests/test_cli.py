@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -10,6 +11,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
+
+from cell.options import float_in, int_in
 
 ROOT = Path(__file__).parent.parent
 
@@ -125,3 +129,12 @@ def test_a_signal_once_the_command_is_done_changes_nothing():
     r = subprocess.run([sys.executable, "-c", code, "--version"], capture_output=True, text=True,
                        timeout=60)
     assert r.returncode == 0 and r.stdout.startswith("cell ") and r.stderr == "", r
+
+
+def test_option_ranges_include_both_ends():
+    whole, number = int_in(1, 8), float_in(0.0, 100.0)
+    assert (whole("1"), whole(" 8 "), number("0"), number("100")) == (1, 8, 0.0, 100.0)
+    for parse, text in ((whole, "0"), (whole, "9"), (number, "-0.5"), (number, "100.5"),
+                        (number, "nan"), (number, "inf")):
+        with pytest.raises(argparse.ArgumentTypeError, match="must be"):
+            parse(text)

@@ -7,6 +7,7 @@ import json
 import pytest
 
 from cell.benchmarks.render import SENSOR_VARIANTS, parser, run
+from cell.sim import layout
 
 
 def test_render_bench_reports_each_camera_and_physics():
@@ -30,3 +31,9 @@ def test_render_bench_rejects_out_of_range_repeats(repeats, capsys):
     with pytest.raises(SystemExit) as exc:
         parser().parse_args(["--repeats", repeats])
     assert exc.value.code == 2
+
+
+def test_real_time_factor_is_simulated_over_wall_time():
+    physics = run(repeats=1, steps=200, width=64, height=48)["physics"]
+    # simulated s per wall s = steps per wall s x simulated s per step
+    assert physics["real_time_factor"] == pytest.approx(physics["steps_per_s"] * layout.TIMESTEP, rel=1e-6)

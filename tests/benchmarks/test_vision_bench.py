@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from cell.benchmarks.vision import SEED_BASE, cold_start, main, run
 from cell.catalogue import LIGHTING_PRESETS
 
@@ -66,3 +68,9 @@ def test_cold_start_times_a_fresh_process():
     cold = cold_start()
     assert cold["detections"] > 0
     assert 0 < cold["detect_s"] <= cold["first_detection_s"] < cold["process_s"]
+
+
+def test_latency_per_part_divides_by_the_parts_in_view_not_the_background():
+    r = run(scenes=1, parts=1, presets=["front"])["presets"]["front"]
+    assert r["parts"] + r["missed"] + r["partial_ok"] + r["partial_wrong"] == 1  # the one part is in view
+    assert r["latency_per_part_ms"] == pytest.approx(r["latency_ms"])

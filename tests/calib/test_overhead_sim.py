@@ -208,3 +208,24 @@ def test_the_printed_report_counts_the_blocked_touches():
               "intrinsics_held": "calibrateCamera"}
     text = format_camera("wrist", report)
     assert "short of 1 of its 3 points" in text
+
+
+class _Captured(Exception):  # noqa: N818 (a test's way out, not an error)
+    pass
+
+
+@pytest.mark.parametrize(("camera", "calibrate"), [("wrist", "calibrate_wrist"),
+                                                   ("overhead", "calibrate_overhead")])
+def test_each_camera_reads_the_joints_with_the_scenarios_noise(monkeypatch, camera, calibrate):
+    spread = {}
+
+    def look_at_the_readings(rig, settings, **kwargs):
+        q = rig.driver.joint_positions()
+        spread["deg"] = float(np.degrees(np.std([rig.read_joints() - q for _ in range(300)])))
+        raise _Captured
+
+    monkeypatch.setattr(f"cell.calib.job.{calibrate}", look_at_the_readings)
+    scenario = scenario_from_dict({"seed": 7, "calibration": {"joint_noise_deg": 0.5}})
+    with pytest.raises(_Captured):
+        run_calibration(scenario, camera=camera, touch=False)
+    assert spread["deg"] == pytest.approx(0.5, rel=0.1)

@@ -9,10 +9,12 @@ import cv2
 import numpy as np
 import pytest
 
+from cell.calib import capture
 from cell.calib.calfile import CalibrationFile, CameraCalibration, load_calibration, write_calibration
 from cell.calib.job import run_calibration
 from cell.calib.wrist import MODEL_RATIO, keep_refinement
 from cell.cli import main as cell_main
+from cell.errors import CalibrationError
 from cell.scenario import scenario_from_dict
 
 SEED = 7  # the benchmark figures use seeds >= 1000
@@ -149,3 +151,12 @@ def test_the_refinement_is_kept_only_when_better_than_the_closed_form_and_near_t
     assert not _keep(0.1, 0.5, 0.4)
     assert not _keep(0.1, 0.12, 0.15)  # within 2x but worse than the closed form
     assert not _keep(0.1, 0.15, 0.15)  # no better: not kept
+
+
+def test_too_few_reachable_views_is_one_calibration_error(monkeypatch, world_factory):
+    world = world_factory(arm=True, seed=7)
+    rig = capture.Rig(world, joint_noise=0.0, rng=np.random.default_rng(7))
+    monkeypatch.setattr(capture, "reach_view", lambda rig, plan, q_hub: "unreachable")
+    settings = scenario_from_dict({"seed": 7, "calibration": {"poses": 3}}).calibration
+    with pytest.raises(CalibrationError, match=r"only 0 of 12 planned views were reachable \(12 unreachable"):
+        capture.capture_views(rig, settings)

@@ -16,6 +16,9 @@ import pytest
 
 from cell import cli
 from cell.jobs import snapshot
+from cell.jobs.snapshot import truth_rows
+from cell.scenario import load_scenario
+from cell.sim.world import World
 
 ROOT = Path(__file__).parent.parent.parent
 SCENARIO = str(ROOT / "scenarios" / "sort.toml")
@@ -243,3 +246,20 @@ def test_a_failed_swap_puts_the_earlier_output_back(capsys, tmp_path, monkeypatc
     assert rc == 2
     assert_one_error_line(err, "cannot be replaced", "busy")
     assert tree(tmp_path) == before
+
+
+def test_the_snapshot_is_the_world_after_time_s_in_its_true_colours(capsys, tmp_path):
+    out = tmp_path / "snap"
+    rc, _, err = run(capsys, *SMALL, "--time", "0.3", "--out", str(out))
+    assert rc == 0, err
+    world = World.build(load_scenario(SCENARIO, overrides=SMALL[2::2]))
+    try:
+        world.step(round(0.3 / world.model.opt.timestep))
+        frame, truth = world.render("overhead"), truth_rows(world)
+    finally:
+        world.close()
+    assert truth, "a part is on the belt after 0.3 s"
+    saved = json.loads((out / "truth.json").read_text())["parts"]
+    assert [p["position"] for p in saved] == [p["position"] for p in truth]
+    rgb = cv2.cvtColor(cv2.imread(str(out / "rgb.png")), cv2.COLOR_BGR2RGB)  # as any reader loads it
+    assert np.array_equal(rgb, frame.rgb)

@@ -3,12 +3,18 @@ scene's ground truth, and the same scenario gives the same figures."""
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import numpy as np
 import pytest
 
+from cell.catalogue import KINDS
+from cell.errors import ScenarioError
 from cell.scenario import scenario_from_dict
 from cell.sweep.errors import SweepError
 from cell.sweep.jobs import compress, detect, edges, match, smooth, sort
+from cell.sweep.scene import place_parts
 
 
 def _scenario(**sections):
@@ -119,3 +125,73 @@ def test_sort_runs_the_closed_loop_calibrating_once_per_set_up():
         {k: v for k, v in second.items() if k not in sort.TIMINGS}
     other = sort.calibration_scenario(_scenario(lighting="back", vision={"threshold": 10}), sort.Settings())
     assert other == sort.calibration_scenario(scenario, sort.Settings())
+
+
+SCENARIO = {"seed": 4, "parts": {"count": 2}}  # the module's scene
+
+
+def test_compress_reports_the_raw_frame_over_the_bytes_and_444_costs_more_than_420(scene):
+    scenario = scenario_from_dict(SCENARIO)
+    s420 = compress.measure(scene, scenario, compress.Settings(codec="jpeg", quality=50, chroma="420"))
+    s444 = compress.measure(scene, scenario, compress.Settings(codec="jpeg", quality=50, chroma="444"))
+    h, w, _ = scene.image.shape
+    assert s420["ratio"] == pytest.approx(h * w * 3 / s420["bytes"]) and s420["ratio"] > 1
+    assert s420["bits_per_pixel"] == pytest.approx(8 * s420["bytes"] / (h * w))
+    # full-resolution colour keeps more: more bytes and a better PSNR at the same quality
+    assert s444["bytes"] > s420["bytes"] and s444["psnr_db"] > s420["psnr_db"], (s420, s444)
+
+
+def test_smoothing_applies_every_median_pass_and_refuses_an_even_kernel(scene):
+    once = smooth.smooth(scene.image, smooth.Settings(filter="median", iterations=1))
+    thrice = smooth.smooth(scene.image, smooth.Settings(filter="median", iterations=3))
+    again = smooth.smooth(smooth.smooth(once, smooth.Settings(filter="median", iterations=1)),
+                          smooth.Settings(filter="median", iterations=1))
+    assert not np.array_equal(once, thrice) and np.array_equal(thrice, again)
+    with pytest.raises(ScenarioError, match="'job.ksize' must be odd, got 4"):
+        smooth.Settings(ksize=4)
+
+
+def test_match_median_over_every_part_counts_the_misses():
+    scenario = scenario_from_dict(SCENARIO)
+    scene2 = match.prepare(scenario, match.Settings())
+    out = match.measure(scene2, scenario, match.Settings(method="ssd", brightness=80))
+    assert out["templates"] == 2 and out["hit_rate"] == 0.5  # one hit, one miss
+    assert out["peak_error_px_median"] <= 3.0
+    assert out["peak_error_px_median_all"] > 3.0, out  # the miss pulls the median of both past hit_px
+
+
+def test_edges_low_threshold_tolerance_and_clutter(scene):
+    scenario = scenario_from_dict(SCENARIO)
+    strict = edges.measure(scene, scenario, edges.Settings(high=100, low_ratio=0.4, tolerance_px=0.0))
+    loose = edges.measure(scene, scenario, edges.Settings(high=100, low_ratio=0.4, tolerance_px=2.0))
+    assert strict["low"] == loose["low"] == pytest.approx(40.0)  # low_ratio * high
+    assert strict["edge_pixels"] == loose["edge_pixels"]  # the tolerance scores, it does not detect
+    assert strict["outline_recall"] < loose["outline_recall"] == 1.0
+    assert loose["clutter"] <= strict["clutter"] < 0.2  # clean rendered parts: little clutter
+
+
+def test_scene_places_parts_at_least_gap_apart():
+    scenario = scenario_from_dict({"seed": 1, "parts": {"count": 4}})
+    kinds = ["washer", "hex_nut", "disc", "square_nut"]
+    gap = 0.03
+    places = place_parts(kinds, scenario, np.random.default_rng(0), gap=gap)
+    assert len(places) == 4
+    for (a, ka), (b, kb) in itertools.combinations(zip(places, kinds, strict=True), 2):
+        least = KINDS[ka].half_diagonal + KINDS[kb].half_diagonal + gap
+        assert math.hypot(a[0] - b[0], a[1] - b[1]) >= least - 1e-12
+
+
+def test_sort_calibrates_with_the_jobs_calibration_seed_and_lighting():
+    scenario = scenario_from_dict(SCENARIO)
+    cal = sort.calibration_scenario(scenario, sort.Settings(calibration_seed=9, calibration_lighting="back"))
+    assert (cal.seed, cal.lighting) == (9, "back") and scenario.seed == 4
+
+
+def test_a_users_detector_gets_no_foreground_iou(scene):
+    from tests.sweep import slow_detector  # our detector behind a user's name (not slowed here)
+
+    ours = detect.measure(scene, scenario_from_dict(SCENARIO), detect.Settings())
+    user_scenario = scenario_from_dict({**SCENARIO, "vision": {"detector": slow_detector.NAME}})
+    users = detect.measure(scene, user_scenario, detect.Settings())
+    assert ours["fg_iou"] > 0.9 and users["fg_iou"] is None  # its foreground is not ours to score
+    assert users["recall"] == ours["recall"]

@@ -164,6 +164,15 @@ def test_the_output_folder_rules(tmp_path):
         prepare_out("", resume=False)
 
 
+def test_a_folder_that_cannot_be_written_is_refused_before_the_sweep(tmp_path, monkeypatch):
+    """(A permission the file system denies: faked, as root may write anywhere.)"""
+    import cell.sweep.output as output
+
+    monkeypatch.setattr(output.os, "access", lambda path, mode: False)
+    with pytest.raises(SweepError, match="cannot be written .no permission."):
+        prepare_out(str(tmp_path / "out"), resume=False)
+
+
 @pytest.mark.parametrize("name", ["results.csv", "metrics.png", "summary.md"])
 def test_an_output_name_that_cannot_become_a_file_is_refused(tmp_path, name):
     out = tmp_path / "out"

@@ -66,11 +66,9 @@ def test_each_run_to_the_pick_zone_gives_the_go_ahead(world_factory):
     assert world.part_pose(2)[0][0] > layout.BARRIER_X - 0.05
 
 
-def test_only_a_part_arriving_latches_the_belt(world_factory):
-    """The part the cup lifts passes the beam again: a break within 5 mm of belt run after
-    the barrier cleared stops the belt while it lasts but does not latch it (latching held
-    the belt through the arm's transfer: fewer parts a minute); a break after a longer
-    clear run, a part arriving, latches it until ``proceed``."""
+def _scripted_beam(world_factory):
+    """A 0.1 m/s indexing belt whose light barrier reads what the test says: (the conveyor,
+    ``ticks(n, blocked)``, which runs n control ticks with the beam broken or clear)."""
     world = world_factory(parts={"count": 1}, conveyor={"speed": 0.1})
     belt, beam = world.conveyor, {"blocked": False}
     belt.barrier_blocked = lambda data: beam["blocked"]
@@ -81,6 +79,15 @@ def test_only_a_part_arriving_latches_the_belt(world_factory):
         for _ in range(n):
             belt.update(world.data, dt)
 
+    return belt, ticks
+
+
+def test_only_a_part_arriving_latches_the_belt(world_factory):
+    """The part the cup lifts passes the beam again: a break within 5 mm of belt run after
+    the barrier cleared stops the belt while it lasts but does not latch it (latching held
+    the belt through the arm's transfer: fewer parts a minute); a break after a longer
+    clear run, a part arriving, latches it until ``proceed``."""
+    belt, ticks = _scripted_beam(world_factory)
     ticks(100, False)
     ticks(1, True)  # a part arrives
     assert belt.latched and not belt.running
@@ -104,16 +111,7 @@ def test_a_released_part_rides_on_until_clear_of_the_beam_for_the_set_distance(w
     and a break within the release's 30 mm after the beam cleared (the same part's next
     leg, a gap in its outline) neither stops nor latches it; after 30 mm clear, the next
     break is a part arriving and latches it."""
-    world = world_factory(parts={"count": 1}, conveyor={"speed": 0.1})
-    belt, beam = world.conveyor, {"blocked": False}
-    belt.barrier_blocked = lambda data: beam["blocked"]
-    dt = world.model.opt.timestep
-
-    def ticks(n: int, blocked: bool) -> None:
-        beam["blocked"] = blocked
-        for _ in range(n):
-            belt.update(world.data, dt)
-
+    belt, ticks = _scripted_beam(world_factory)
     ticks(100, False)
     ticks(1, True)  # the part arrives
     assert belt.latched

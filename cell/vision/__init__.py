@@ -95,6 +95,7 @@ _WHERE = {
     "threshold_iterative": "threshold",
     "threshold_otsu": "threshold",
     "two_template_decision": "template",
+    "unclipped_mean": "colour",
 }
 
 __all__ = sorted(_WHERE)

@@ -9,6 +9,9 @@ References: A. R. Smith, "Color gamut transform pairs", SIGGRAPH 1978 (HSV);
 CIE 15:2004 (L*a*b*); Gonzalez & Woods, *Digital Image Processing*, 4th ed., 7.2;
 OpenCV ``cv2.cvtColor``. Hue is averaged on the circle (directional statistics,
 Mardia & Jupp 2000), its spread given as the circular standard deviation.
+:func:`unclipped_mean` undoes what a saturating sensor does to a noisy channel's mean
+(the mean of a censored normal distribution: Cohen, *Truncated and Censored Samples*,
+1991, ch. 2).
 """
 
 from __future__ import annotations
@@ -17,11 +20,12 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.special import ndtr
 
 from cell.errors import VisionError
 from cell.vision._checks import check_choice, check_colour, check_mask, check_range
 
-__all__ = ["ColourStats", "colour_stats", "convert_colour"]
+__all__ = ["ColourStats", "colour_stats", "convert_colour", "unclipped_mean"]
 
 ORDERS = ("rgb", "bgr")
 SPACES = ("hsv", "lab")
@@ -136,3 +140,45 @@ def colour_stats(
         chroma_mean=float(np.hypot(lab[:, 1], lab[:, 2]).mean()),
         highlight_fraction=float(highlight.mean()),
     )
+
+
+_MU_GRID = np.linspace(0.0, 255.0, 1021)  # grey levels: the means unclipped_mean tells apart
+
+
+def unclipped_mean(mean: np.ndarray, *, sigma: float) -> np.ndarray:
+    """The mean grey level of a channel before Gaussian read noise was added and the sum
+    saturated to 0..255: the ``mu`` in [0, 255] whose N(mu, sigma^2), clipped to
+    [0, 255], averages ``mean``. A dark or a bright channel loses part of its noise at an
+    end, so its mean drifts toward mid-grey: with sigma = 75, yellow plastic's blue of 19
+    reads 40 and a blue belt's red of 59 reads 68, which makes yellow plastic look like
+    brass; this takes them back.
+
+    The clipped mean, ``mu (Phi(b) - Phi(a)) + 255 (1 - Phi(b)) + sigma (phi(a) - phi(b))``
+    with ``a = -mu / sigma`` and ``b = (255 - mu) / sigma`` (Cohen, *Truncated and
+    Censored Samples*, 1991, ch. 2; Phi and phi the standard normal's distribution and
+    density), rises with ``mu``; it is inverted by ``np.interp`` on 1,021 values of ``mu``
+    (within 0.01 grey levels). A mean beyond what any ``mu`` in [0, 255] gives is taken
+    to the nearer end (a specular highlight saturated by the light, not the noise, stays
+    255).
+
+    Parameters
+    ----------
+    mean : finite grey levels in [0, 255], any shape (a channel's mean, or several).
+    sigma : the noise's standard deviation (grey levels, 0 to 255); 0 gives ``mean`` back.
+
+    Returns float64 of ``mean``'s shape, in [0, 255]. (The median of a clipped channel
+    needs no such correction: clipping keeps the middle value where it is.)
+    """
+    sigma = check_range("sigma", sigma, 0.0, 255.0)
+    try:
+        m = np.asarray(mean, dtype=np.float64)
+    except (TypeError, ValueError):
+        m = np.full(1, np.nan)
+    if not (np.isfinite(m).all() and (m.size == 0 or 0.0 <= m.min() <= m.max() <= 255.0)):
+        raise VisionError(f"argument 'mean': expected grey levels in [0, 255], got {mean!r}")
+    if sigma == 0.0:
+        return m.copy()
+    a, b = -_MU_GRID / sigma, (255.0 - _MU_GRID) / sigma
+    density = (np.exp(-a * a / 2) - np.exp(-b * b / 2)) / np.sqrt(2 * np.pi)
+    clipped = _MU_GRID * (ndtr(b) - ndtr(a)) + 255.0 * ndtr(-b) + sigma * density
+    return np.interp(m, clipped, _MU_GRID)

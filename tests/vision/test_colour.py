@@ -2,10 +2,12 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from skimage.color import rgb2hsv, rgb2lab
 
 from cell.errors import VisionError
-from cell.vision.colour import colour_stats, convert_colour
+from cell.vision.colour import colour_stats, convert_colour, unclipped_mean
 
 
 def test_conversions_match_scikit_image():
@@ -86,3 +88,53 @@ def test_hue_std_is_the_circular_standard_deviation():
     expected = math.degrees(math.sqrt(-2.0 * math.log(r)))
     assert s.hue_mean == pytest.approx(0.0, abs=0.2) or s.hue_mean == pytest.approx(360.0, abs=0.2)
     assert s.hue_std == pytest.approx(expected, abs=0.3)
+
+
+# unclipped_mean: a channel's mean before the sensor clipped its noise
+
+
+def _clipped_mean(mu: float, sigma: float) -> float:
+    """E[clip(mu + sigma Z, 0, 255)] from scipy.stats: the share inside times the truncated
+    normal's mean, plus 255 times the share above (none below counts: it reads 0). The
+    reference the closed form in unclipped_mean is checked against."""
+    from scipy import stats
+
+    a, b = (0.0 - mu) / sigma, (255.0 - mu) / sigma
+    inside = stats.norm.cdf(b) - stats.norm.cdf(a)
+    return inside * stats.truncnorm.mean(a, b, loc=mu, scale=sigma) + 255.0 * stats.norm.sf(b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(mu=st.floats(0.0, 255.0), sigma=st.floats(0.5, 100.0))
+def test_unclipped_mean_inverts_the_clipped_mean(mu, sigma):
+    assert unclipped_mean(_clipped_mean(mu, sigma), sigma=sigma) == pytest.approx(mu, abs=0.01)
+
+
+def test_unclipped_mean_takes_a_noisy_sensors_drift_back():
+    """Yellow plastic's blue of 19 and a blue belt's red of 59 under noise of sigma 75,
+    drawn and clipped as the sensor does: their means read 40 and 68; taken back, 19 and 59."""
+    rng = np.random.default_rng(3)
+    noisy = np.clip(np.rint(np.array([19.0, 59.0]) + 75 * rng.standard_normal((400_000, 2))), 0, 255)
+    drifted = noisy.mean(axis=0)
+    assert drifted == pytest.approx([40.4, 68.1], abs=0.5)
+    assert unclipped_mean(drifted, sigma=75) == pytest.approx([19, 59], abs=0.5)
+
+
+def test_unclipped_mean_ends_and_shapes():
+    means = np.array([[0.0, 128.0, 255.0], [3.0, 100.0, 252.0]])
+    assert unclipped_mean(means, sigma=0).tolist() == means.tolist()  # no noise, no drift
+    got = unclipped_mean(means, sigma=5)
+    assert got.shape == (2, 3) and got[0].tolist() == [0.0, pytest.approx(128.0, abs=1e-9), 255.0]
+    assert got[1, 0] < 3.0 and got[1, 2] > 252.0  # a dark mean was lifted, a bright one lowered
+    assert unclipped_mean(127.5, sigma=40) == pytest.approx(127.5, abs=0.01)  # symmetric: no drift
+    assert unclipped_mean(np.zeros((0, 3)), sigma=4).shape == (0, 3)
+
+
+@pytest.mark.parametrize("mean, sigma, culprit", [
+    (np.array([np.nan]), 4.0, "'mean'"), (256.0, 4.0, "'mean'"), (-1.0, 4.0, "'mean'"),
+    ("x", 4.0, "'mean'"), (10.0, -1.0, "'sigma'"), (10.0, float("inf"), "'sigma'"),
+    (10.0, 256.0, "'sigma'"),
+])
+def test_unclipped_mean_refuses_bad_values(mean, sigma, culprit):
+    with pytest.raises(VisionError, match=culprit):
+        unclipped_mean(mean, sigma=sigma)

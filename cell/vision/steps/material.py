@@ -18,6 +18,10 @@ from brass, so the classifier looks at two cues that do not depend on hue:
   belt's known reflectance (a white balance against a reference surface of known colour),
   is compared with the catalogue's finishes (a softmax over squared distances); metals
   also read brighter under specular light. This decides when the grain is inconclusive.
+  The sensor saturates its noise at 0 and 255, so a noisy dark channel's mean reads
+  brighter and a bright one's darker (noise of 75 grey levels made yellow plastic brass):
+  the part's mean and the belt's are taken back to before the clipping
+  (:func:`cell.vision.colour.unclipped_mean`, with the frame's noise estimate).
 
 The albedo gives a prior P(metal), held within 0.05..0.95; clear grain multiplies its
 odds by 50, a surface that would clearly show a metal's grain but has none divides them
@@ -27,6 +31,9 @@ grain alone, which a moulded part's shading can fake under directional light, do
 make it metal; a brighter or darker reading (a white balance off under directional light)
 leaves the chromaticity as it is. Under a back-light (or against a light table) a part is
 a silhouette: neither cue exists and the material is ``"unknown"`` rather than a guess.
+On a frame noisier than 20 grey levels the estimate of the noise reads low (much of it is
+clipped: 79 for 90), so the labels are read again with 1.25x that noise, and a part whose
+label changes is ``"unknown"`` too (else the lower of the two confidences).
 
 Per part, :func:`part_materials` measures the interior, away from the edge's blend with
 the belt (the mask eroded 5x5, or 3x3 where that leaves under 150 pixels: a square nut's
@@ -46,6 +53,7 @@ import numpy as np
 from cell.catalogue import MATERIALS
 from cell.errors import VisionError
 from cell.vision._checks import check_range
+from cell.vision.colour import unclipped_mean
 from cell.vision.settings import VisionSettings
 from cell.vision.steps.foreground import noise_sigma
 
@@ -76,6 +84,8 @@ _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == 
 _FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
 _PRIOR_FLOOR, _OFF_HUE_FLOOR = 0.05, 0.01  # the prior's floor; for a colour no metal has
 _OFF_HUE = 0.12  # chromaticity distance from every metal finish's that no metal reads at
+_CLIPPING = 20.0  # grey levels: a noisier frame has its colours read again at _SIGMA_LOW x
+_SIGMA_LOW = 1.25  # the noise the frame's estimate may hide where the sensor clips it
 
 
 def _chromaticity(rgb: np.ndarray) -> np.ndarray:
@@ -128,9 +138,11 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
     """The :class:`MaterialLabel` of each part (module docstring).
     ``image`` uint8 RGB (H, W, 3); ``foreground`` uint8 (H, W), 255 on any part's pixels.
     Under 30 free pixels around a part, the belt's colour is the median colour of the free
-    pixels of the whole frame. ``unknown`` (confidence 0) for a back-lit frame, an interior
-    under 8 pixels, or a belt (or a frame without free pixels) at ``backlight_level`` or
-    brighter in every channel (a light table)."""
+    pixels of the whole frame (a median: the sensor's clipping leaves it be; the means are
+    taken back, :func:`cell.vision.colour.unclipped_mean`). ``unknown`` (confidence 0) for a
+    back-lit frame, an interior under 8 pixels, a belt (or a frame without free pixels) at
+    ``backlight_level`` or brighter in every channel (a light table), or a label that
+    changes when a frame's noise over 20 grey levels is read 1.25x higher."""
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.shape[2:] != (3,):
         raise VisionError(f"part_materials: argument 'image' must be uint8 (H, W, 3), got "
                           f"{getattr(image, 'shape', type(image).__name__)}")
@@ -141,7 +153,7 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
         raise VisionError(f"part_materials: argument 'settings' must be VisionSettings, got "
                           f"{type(settings).__name__}")
     out = [_UNKNOWN] * len(parts)
-    rows, stats, belts = [], [], []
+    rows, stats, belts, belt_means = [], [], [], []
     frame_belt = None  # the median of the frame's free pixels, on first need
     for i, part in enumerate([] if backlit else parts):
         if (inner := _interior(image, part)) is None:
@@ -156,14 +168,31 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
             rows.append(i)
             stats.append(_statistics(*inner))
             belts.append(belt)
+            belt_means.append(belt is not frame_belt)
     if rows:
-        stats = np.array(stats)
-        labels = _labels(_albedo(stats[:, _MEAN : _MEAN + 3], np.array(belts), settings.belt_rgb),
-                         _grain(stats, noise_sigma(image)), grain_metal=settings.grain_metal,
-                         grain_z_min=settings.grain_z_min, albedo_sigma=settings.albedo_sigma)
+        stats, belts, sigma = np.array(stats), np.array(belts), noise_sigma(image)
+        labels = _frame_labels(stats, belts, np.array(belt_means), sigma, settings)
+        if sigma > _CLIPPING:  # the decision must not hang on the noise estimate
+            alt = _frame_labels(stats, belts, np.array(belt_means), sigma * _SIGMA_LOW, settings)
+            labels = [MaterialLabel(a.material, min(a.confidence, b.confidence))
+                      if a.material == b.material else _UNKNOWN
+                      for a, b in zip(labels, alt, strict=True)]
         for i, label in zip(rows, labels, strict=True):
             out[i] = label
     return out
+
+
+def _frame_labels(stats: np.ndarray, belts: np.ndarray, belt_means: np.ndarray, sigma: float,
+                  settings: VisionSettings) -> list[MaterialLabel]:
+    """Labels of parts from their statistics rows (P, 9) and belt colours (P, 3), those
+    marked in ``belt_means`` being means (grey levels); the means, not the medians, are
+    taken back to before the sensor clipped a noise of ``sigma`` (:func:`unclipped_mean`)."""
+    belts = belts.copy()
+    belts[belt_means] = unclipped_mean(belts[belt_means], sigma=sigma)
+    means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=sigma)
+    return _labels(_albedo(means, belts, settings.belt_rgb), _grain(stats, sigma),
+                   grain_metal=settings.grain_metal, grain_z_min=settings.grain_z_min,
+                   albedo_sigma=settings.albedo_sigma)
 
 
 def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.ndarray, *,
@@ -174,7 +203,9 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
     colour next to it (grey levels), ``belt_rgb`` the belt's reflectance (0..1), the
     white-balance reference, ``noise_sigma`` the frame's sensor noise (grey levels) if known:
     channels near black clip the noise, so the part's own estimate (across its colour) can
-    read low; the larger of the two is used.
+    read low; the larger of the two is used. The part's mean colour and ``belt_rgb_seen``
+    (taken as a mean) are taken back to before the sensor clipped that noise
+    (:func:`cell.vision.colour.unclipped_mean`) for the albedo; ``mean_rgb`` is as measured.
 
     ``patch`` uint8 (H, W, 3); ``mask`` bool or uint8 (H, W), nonzero inside;
     ``belt_rgb_seen`` three finite numbers in 0..255; ``belt_rgb`` three numbers in
@@ -202,7 +233,8 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
     row = _statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
     grain, z, vis, _ = _grain(row[None], noise_sigma)[0].tolist()
     mean = row[_MEAN : _MEAN + 3]
-    return MaterialFeatures(mean_rgb=mean, albedo=_albedo(mean, belt_rgb_seen, belt_rgb),
+    albedo = _albedo(*(unclipped_mean(m, sigma=noise_sigma) for m in (mean, belt_rgb_seen)), belt_rgb)
+    return MaterialFeatures(mean_rgb=mean, albedo=albedo,
                             grain=grain, grain_z=z, clipped=1.0 - row[_UNCLIPPED] / row[_N],
                             pixels=int(row[_N]), grain_visibility=vis, grain_pixels=int(row[_KEPT]))
 

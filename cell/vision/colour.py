@@ -142,7 +142,7 @@ def colour_stats(
     )
 
 
-_MU_GRID = np.linspace(0.0, 255.0, 1021)  # grey levels: the means unclipped_mean tells apart
+_MU_GRID = np.linspace(0.0, 255.0, 2041)  # grey levels: the means unclipped_mean tells apart
 
 
 def unclipped_mean(mean: np.ndarray, *, sigma: float) -> np.ndarray:
@@ -156,7 +156,7 @@ def unclipped_mean(mean: np.ndarray, *, sigma: float) -> np.ndarray:
     The clipped mean, ``mu (Phi(b) - Phi(a)) + 255 (1 - Phi(b)) + sigma (phi(a) - phi(b))``
     with ``a = -mu / sigma`` and ``b = (255 - mu) / sigma`` (Cohen, *Truncated and
     Censored Samples*, 1991, ch. 2; Phi and phi the standard normal's distribution and
-    density), rises with ``mu``; it is inverted by ``np.interp`` on 1,021 values of ``mu``
+    density), rises with ``mu``; it is inverted by ``np.interp`` on 2,041 values of ``mu``
     (within 0.01 grey levels). A mean beyond what any ``mu`` in [0, 255] gives is taken
     to the nearer end (a specular highlight saturated by the light, not the noise, stays
     255).

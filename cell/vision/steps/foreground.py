@@ -11,11 +11,14 @@ difference image is the largest channel difference from that belt (grey levels),
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` sigma of the
 difference, sigma = 1.4826 x its MAD, at least ``belt_floor``); the outline step then
-re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is smoothed by a 3x3
-Gaussian first, and thresholded with hysteresis: its threshold stands high over a faint
-part's contrast, so a pixel above ``belt_low`` times the threshold is foreground too
-where it connects to one above it, and a faint part that is clear somewhere is one group
-of pixels, not fragments (Canny, 1986, applied to regions). A bright, colourless belt is
+re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is
+smoothed by a Gaussian first, 3x3 (``smooth``) or wider where the sensor's noise
+(:func:`noise_sigma`) asks for it: the smallest aperture up to 15 that leaves under 8.5
+grey levels of that noise (7x7 at 40 grey levels, 13x13 at 60). It is thresholded with
+hysteresis: its threshold stands high over a faint part's contrast, so a pixel above
+``belt_low`` times the threshold is foreground too where it connects to one above it,
+and a faint part that is clear somewhere is one group of pixels, not fragments (Canny,
+1986, applied to regions). A bright, colourless belt is
 a light table (``backlit``).
 
 The textbook methods threshold the grey image instead, with the syllabus functions of
@@ -55,6 +58,8 @@ _MEDIAN = 15  # small pixels: the belt median's width
 _WINDOW = 0.072  # m: the belt median's least width on the table (73 mm: the default camera's)
 _THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
+_SMOOTHED = 8.5  # grey levels of noise the smoothing leaves at most, where it can
+_WIDEST_SMOOTHING = 15  # px: the smoothing's widest aperture
 
 
 @dataclass(frozen=True)
@@ -161,6 +166,18 @@ def noise_sigma(image: np.ndarray) -> float:
     return 1.4826 * float(np.partition(dev, k)[k]) / math.sqrt(2)
 
 
+def _smoothing_aperture(noise: float, *, least: int, sigma: float = 0.0) -> int:
+    """The aperture (px, odd) of the Gaussian that smooths a frame of sensor noise
+    ``noise`` (grey levels): the smallest from ``least`` up to 15 that leaves under
+    ``_SMOOTHED`` grey levels of it (the noise times the root of the 2-D kernel's sum of
+    squares, ``cv2.getGaussianKernel(k, sigma)``; ``sigma`` 0: from the aperture), else 15.
+    At the default 3: 3 to a noise of 22 grey levels, 7 at 40, 13 at 60, 15 from 75."""
+    for k in range(least, _WIDEST_SMOOTHING + 1, 2):
+        if noise * float(np.sum(cv2.getGaussianKernel(k, sigma) ** 2)) <= _SMOOTHED:
+            return k
+    return max(least, _WIDEST_SMOOTHING)
+
+
 def _median_mad(values: np.ndarray) -> tuple[float, float]:
     """Median and MAD (scaled to a Gaussian sigma) of every 4th pixel of every 4th row."""
     sample = values[::4, ::4].ravel()
@@ -192,7 +209,8 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
     med, mad = _median_mad(diff)
     noise, smoothed = mad, image
     if st.smooth and noise > _NOISY:  # sensor noise: average first
-        smoothed = cv2.GaussianBlur(image, (st.smooth, st.smooth), st.smooth_sigma)
+        k = _smoothing_aperture(noise_sigma(image), least=st.smooth, sigma=st.smooth_sigma)
+        smoothed = cv2.GaussianBlur(image, (k, k), st.smooth_sigma)
     if st.segmentation == "belt":
         if smoothed is not image:
             diff = colour_difference(smoothed, low, high)

@@ -91,6 +91,41 @@ def test_a_noisy_frame_is_smoothed_first():
     assert cv2.countNonZero(fg.mask) < 0.001 * img.shape[0] * img.shape[1]  # no noise specks
 
 
+def _noisy(img: np.ndarray, sigma: float, seed: int) -> np.ndarray:
+    """``img`` plus Gaussian noise of ``sigma`` grey levels, rounded and saturated."""
+    noise = np.random.default_rng(seed).normal(0, sigma, img.shape)
+    return np.clip(np.rint(img.astype(np.float64) + noise), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("sigma, aperture", [(8, 3), (40, 7), (60, 11), (90, 15)])
+def test_the_smoothing_widens_with_the_sensor_noise(sigma, aperture):
+    """The smallest Gaussian from vision.smooth (3) up to 15x15 that leaves under 8.5 grey
+    levels of the noise as the frame's estimate reads it (57.7 for 60: the sensor clips
+    some): 3x3 leaves 0.375 of it, 7x7 0.201, 11x11 0.143; 15x15 at most."""
+    img = _noisy(drawn.frame(), sigma, 2)
+    assert np.array_equal(find_foreground(img, VisionSettings()).image,
+                          cv2.GaussianBlur(img, (aperture, aperture), 0))
+    wider = find_foreground(img, VisionSettings(smooth=max(aperture, 9))).image
+    assert np.array_equal(wider, cv2.GaussianBlur(img, (max(aperture, 9),) * 2, 0))  # the least
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_grey_part_under_heavy_noise_is_found_whole(seed):
+    """A grey plastic disc (20 mm; 55 grey levels over the belt in red, 7 in blue) under
+    noise of sigma 40: a 3x3 Gaussian left 15 grey levels of it and kept 29-67 % of the disc;
+    the 7x7 the noise asks for keeps most of it, and no speck of the belt grows to half a part."""
+    img = drawn.frame().astype(np.float64)
+    part = np.zeros(img.shape[:2], np.uint8)
+    cv2.circle(part, drawn.mm(0, 0), drawn.px(10), 1, -1)
+    img[part > 0] = (115, 115, 117)
+    fg = find_foreground(_noisy(img, 40, seed), VisionSettings())
+    assert (fg.mask[part > 0] > 0).mean() > 0.85
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(fg.mask)
+    disc = labels[drawn.mm(0, 0)[1], drawn.mm(0, 0)[0]]
+    specks = [stats[i, cv2.CC_STAT_AREA] for i in range(1, n) if i != disc]
+    assert max(specks, default=0) < 0.5 * part.sum()
+
+
 def test_a_noisy_frame_keeps_more_of_a_faint_part_by_hysteresis():
     """Sensor noise (sigma 8) raises the threshold to 8.9 grey levels; a part 8 over the
     belt is then broken (45 % of it foreground) unless the pixels over 0.8 of the threshold

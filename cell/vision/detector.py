@@ -130,7 +130,8 @@ class PartDetector:
         pieces.sort(key=lambda p: p.blob.centroid)
         t3 = time.perf_counter()
         materials = part_materials(image, _own_pixels(image.shape[:2], pieces),  # step 5
-                                   [p.blob.pixels for p in pieces], settings=st, backlit=fg.backlit)
+                                   [p.blob.pixels for p in pieces], settings=st,
+                                   backlit=fg.backlit, impulses=fg.impulses)
         t4 = time.perf_counter()
         out = [_detection(i, p, m)                                              # step 6
                for i, (p, m) in enumerate(zip(pieces, materials, strict=True), 1)]

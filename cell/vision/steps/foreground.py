@@ -1,5 +1,11 @@
 """Step 1, foreground: which pixels are not the belt.
 
+A frame with impulse noise (salt and pepper: dead and hot pixels, black or white alone among
+their neighbours, :func:`impulse_share`) over 4 % of its pixels is replaced by its 3x3
+median first, the textbook cure (Gonzalez & Woods, *Digital Image Processing*, 5.3): the
+steps after it read the median. Below that the belt model's medians and the opening
+already ignore the specks, and a median would cost the outlines some precision.
+
 ``segmentation = "belt"`` (the default) learns the empty belt from the frame itself: a
 15-wide median over a 1/8-scale copy (120 px at full scale: 73 mm of the table seen by the
 default camera, wider than any part) keeps the belt, its texture's mean, light gradients
@@ -51,13 +57,14 @@ from cell.vision.threshold import (
 )
 
 __all__ = ["BeltModel", "Foreground", "belt_model", "belt_scale", "colour_difference",
-           "find_foreground", "noise_sigma"]
+           "find_foreground", "impulse_share", "noise_sigma"]
 
 _SCALE = 8  # the belt model's downscale factor, at least
 _MEDIAN = 15  # small pixels: the belt median's width
 _WINDOW = 0.072  # m: the belt median's least width on the table (73 mm: the default camera's)
 _THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
+_IMPULSES = 0.04  # a frame with more impulse noise than this share of pixels is despeckled
 _SMOOTHED = 8.5  # grey levels of noise the smoothing leaves at most, where it can
 _WIDEST_SMOOTHING = 15  # px: the smoothing's widest aperture
 
@@ -139,7 +146,8 @@ class Foreground:
     separated them; ``backlit`` whether the belt is a light table; ``image`` the frame
     the difference was taken of (smoothed when noisy); ``noise`` the colour difference's
     spread before any smoothing (a Gaussian sigma from its MAD, grey levels: sensor noise
-    and belt texture).
+    and belt texture); ``impulses`` the share of its pixels that are impulse noise
+    (:func:`impulse_share`): over 4 %, every image above is of the frame's 3x3 median.
     """
 
     mask: np.ndarray
@@ -149,6 +157,7 @@ class Foreground:
     backlit: bool
     image: np.ndarray
     noise: float
+    impulses: float
 
 
 def noise_sigma(image: np.ndarray) -> float:
@@ -178,6 +187,24 @@ def _smoothing_aperture(noise: float, *, least: int, sigma: float = 0.0) -> int:
     return max(least, _WIDEST_SMOOTHING)
 
 
+def impulse_share(image: np.ndarray) -> float:
+    """The share of a uint8 RGB frame's (H, W, 3) pixels that are impulse noise (salt and
+    pepper: dead or hot pixels): black (0) or white (255) in every channel while neither
+    neighbour on its row is, counted on every 8th row from row 4 (0 for a frame narrower
+    than 3 pixels or shorter than 5 rows). A glare spot's saturated pixels come in groups
+    and do not count; dense impulses neither (it reads 0.16 for 20 %), and Gaussian noise
+    that clips a dark belt to black gives a few (0.5 % at a sigma of 90 grey levels)."""
+    check_colour("image", image)
+    rows = image[4::8]
+    if rows.shape[0] == 0 or rows.shape[1] < 3:
+        return 0.0
+    isolated = 0
+    for level in (0, 255):
+        at = cv2.inRange(rows, (level,) * 3, (level,) * 3)  # 255 where every channel is level
+        isolated += cv2.countNonZero(at[:, 1:-1] & ~at[:, :-2] & ~at[:, 2:])
+    return isolated / (rows.shape[0] * (rows.shape[1] - 2))
+
+
 def _median_mad(values: np.ndarray) -> tuple[float, float]:
     """Median and MAD (scaled to a Gaussian sigma) of every 4th pixel of every 4th row."""
     sample = values[::4, ::4].ravel()
@@ -202,6 +229,9 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
         raise VisionError(f"argument 'settings': expected VisionSettings, got {type(settings).__name__}")
     st = settings
     h, w = image.shape[:2]
+    impulses = impulse_share(image)
+    if impulses > _IMPULSES:  # salt and pepper: the textbook cure, a median (Gonzalez & Woods 5.3)
+        image = cv2.medianBlur(image, 3)
     belt = belt_model(image, scale=belt_scale(m_per_px))
     backlit = _is_backlit(belt.median, st.backlight_level)
     low, high = (cv2.resize(m, (w, h), interpolation=cv2.INTER_LINEAR) for m in (belt.low, belt.high))
@@ -234,4 +264,4 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
             if st.segmentation != "fixed" and diff.min() == diff.max():
                 mask[:] = False  # one grey level: no two classes, whatever the polarity
     mask = opening(mask.view(np.uint8) * np.uint8(255))
-    return Foreground(mask, diff, belt, t, backlit, smoothed, noise)
+    return Foreground(mask, diff, belt, t, backlit, smoothed, noise, impulses)

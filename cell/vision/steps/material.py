@@ -31,6 +31,9 @@ grain alone, which a moulded part's shading can fake under directional light, do
 make it metal; a brighter or darker reading (a white balance off under directional light)
 leaves the chromaticity as it is. Under a back-light (or against a light table) a part is
 a silhouette: neither cue exists and the material is ``"unknown"`` rather than a guess.
+A frame with over 7.5 % impulse noise (salt and pepper; below it the robust scales hold)
+is read through its 3x3 median, and the grain does not count (the median takes it out with
+the specks): the albedo decides alone, within 0.05..0.95.
 On a frame noisier than 20 grey levels the estimate of the noise reads low (much of it is
 clipped: 79 for 90), so the labels are read again with 1.25x that noise, and a part whose
 label changes is ``"unknown"`` too (else the lower of the two confidences).
@@ -84,6 +87,7 @@ _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == 
 _FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
 _PRIOR_FLOOR, _OFF_HUE_FLOOR = 0.05, 0.01  # the prior's floor; for a colour no metal has
 _OFF_HUE = 0.12  # chromaticity distance from every metal finish's that no metal reads at
+_GRAINLESS = 0.075  # a frame with more impulse noise than this share is read without grain
 _CLIPPING = 20.0  # grey levels: a noisier frame has its colours read again at _SIGMA_LOW x
 _SIGMA_LOW = 1.25  # the noise the frame's estimate may hide where the sensor clips it
 
@@ -134,7 +138,8 @@ class MaterialFeatures:
 
 
 def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPixels], *,
-                   settings: VisionSettings, backlit: bool) -> list[MaterialLabel]:
+                   settings: VisionSettings, backlit: bool, impulses: float = 0.0
+                   ) -> list[MaterialLabel]:
     """The :class:`MaterialLabel` of each part (module docstring).
     ``image`` uint8 RGB (H, W, 3); ``foreground`` uint8 (H, W), 255 on any part's pixels.
     Under 30 free pixels around a part, the belt's colour is the median colour of the free
@@ -142,7 +147,11 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
     taken back, :func:`cell.vision.colour.unclipped_mean`). ``unknown`` (confidence 0) for a
     back-lit frame, an interior under 8 pixels, a belt (or a frame without free pixels) at
     ``backlight_level`` or brighter in every channel (a light table), or a label that
-    changes when a frame's noise over 20 grey levels is read 1.25x higher."""
+    changes when a frame's noise over 20 grey levels is read 1.25x higher. ``impulses`` the
+    share of the frame's pixels that are impulse noise (salt and pepper,
+    :func:`~cell.vision.steps.foreground.impulse_share`, 0 to 1): up to 7.5 % the robust
+    scales hold and the frame is read as it is; above, its 3x3 median is read instead, and
+    without grain (the median takes it out too): the albedo alone decides."""
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.shape[2:] != (3,):
         raise VisionError(f"part_materials: argument 'image' must be uint8 (H, W, 3), got "
                           f"{getattr(image, 'shape', type(image).__name__)}")
@@ -152,6 +161,10 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
     if not isinstance(settings, VisionSettings):
         raise VisionError(f"part_materials: argument 'settings' must be VisionSettings, got "
                           f"{type(settings).__name__}")
+    impulses = check_range("impulses", impulses, 0.0, 1.0)
+    grain = impulses <= _GRAINLESS
+    if not grain:
+        image = cv2.medianBlur(image, 3)
     out = [_UNKNOWN] * len(parts)
     rows, stats, belts, belt_means = [], [], [], []
     frame_belt = None  # the median of the frame's free pixels, on first need
@@ -171,9 +184,10 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
             belt_means.append(belt is not frame_belt)
     if rows:
         stats, belts, sigma = np.array(stats), np.array(belts), noise_sigma(image)
-        labels = _frame_labels(stats, belts, np.array(belt_means), sigma, settings)
+        labels = _frame_labels(stats, belts, np.array(belt_means), sigma, settings, grain)
         if sigma > _CLIPPING:  # the decision must not hang on the noise estimate
-            alt = _frame_labels(stats, belts, np.array(belt_means), sigma * _SIGMA_LOW, settings)
+            alt = _frame_labels(stats, belts, np.array(belt_means), sigma * _SIGMA_LOW, settings,
+                                grain)
             labels = [MaterialLabel(a.material, min(a.confidence, b.confidence))
                       if a.material == b.material else _UNKNOWN
                       for a, b in zip(labels, alt, strict=True)]
@@ -183,14 +197,17 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
 
 
 def _frame_labels(stats: np.ndarray, belts: np.ndarray, belt_means: np.ndarray, sigma: float,
-                  settings: VisionSettings) -> list[MaterialLabel]:
+                  settings: VisionSettings, grain: bool) -> list[MaterialLabel]:
     """Labels of parts from their statistics rows (P, 9) and belt colours (P, 3), those
     marked in ``belt_means`` being means (grey levels); the means, not the medians, are
     taken back to before the sensor clipped a noise of ``sigma`` (:func:`unclipped_mean`)."""
     belts = belts.copy()
     belts[belt_means] = unclipped_mean(belts[belt_means], sigma=sigma)
     means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=sigma)
-    return _labels(_albedo(means, belts, settings.belt_rgb), _grain(stats, sigma),
+    rows = _grain(stats, sigma)
+    if not grain:  # no evidence either way: no grain seen, nor any visible
+        rows[:, 1:3] = 0.0
+    return _labels(_albedo(means, belts, settings.belt_rgb), rows,
                    grain_metal=settings.grain_metal, grain_z_min=settings.grain_z_min,
                    albedo_sigma=settings.albedo_sigma)
 

@@ -13,6 +13,7 @@ from cell.vision.steps.foreground import (
     belt_scale,
     colour_difference,
     find_foreground,
+    impulse_share,
     noise_sigma,
 )
 from tests.vision.steps import drawn
@@ -124,6 +125,43 @@ def test_a_grey_part_under_heavy_noise_is_found_whole(seed):
     disc = labels[drawn.mm(0, 0)[1], drawn.mm(0, 0)[0]]
     specks = [stats[i, cv2.CC_STAT_AREA] for i in range(1, n) if i != disc]
     assert max(specks, default=0) < 0.5 * part.sum()
+
+
+def test_impulse_share_counts_lone_black_and_white_pixels_on_every_8th_row():
+    img = np.full((64, 64, 3), 100, np.uint8)  # rows 4, 12, ..., 60 sampled: 8 x 62 pixels
+    for x in (10, 20, 30):
+        img[4, x] = 255  # white: counted
+    img[12, 40] = 0  # black: counted
+    img[20, 50:52] = 255  # a pair (a glare spot's edge): neither is alone
+    img[28, 9] = (255, 255, 0)  # saturated in two channels: no impulse
+    img[5, 30] = 0  # not a sampled row
+    assert impulse_share(img) == pytest.approx(4 / (8 * 62))
+    assert impulse_share(img[:4]) == 0.0 and impulse_share(img[:, :2]) == 0.0
+    with pytest.raises(VisionError, match="image"):
+        impulse_share(img[..., 0])
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_salt_and_pepper_is_taken_out_by_a_median_first(seed):
+    """10 % of the pixels black or white (a sensor's dead and hot pixels): the frame's 3x3
+    median is segmented, and the grey disc is found whole with no speck of the belt."""
+    rng = np.random.default_rng(seed)
+    img = drawn.frame()
+    part = np.zeros(img.shape[:2], np.uint8)
+    cv2.circle(part, drawn.mm(0, 0), drawn.px(10), 1, -1)
+    img[part > 0] = (115, 115, 117)
+    hit = rng.random(img.shape[:2]) < 0.10
+    img[hit] = (rng.integers(0, 2, int(hit.sum())) * 255).astype(np.uint8)[:, None]
+    fg = find_foreground(img, VisionSettings())
+    assert 0.08 < fg.impulses < 0.11
+    assert (fg.mask[part > 0] > 0).mean() > 0.95
+    assert cv2.countNonZero(fg.mask) - cv2.countNonZero(fg.mask * part) < 20
+    few = img.copy()
+    few[hit] = drawn.frame()[hit]
+    few[part > 0] = (115, 115, 117)
+    few[4, 100], few[12, 200] = 255, 0  # a few hot and dead pixels: no median
+    clean = find_foreground(few, VisionSettings())
+    assert 0 < clean.impulses < 0.04 and clean.image is few
 
 
 def test_a_noisy_frame_keeps_more_of_a_faint_part_by_hysteresis():

@@ -319,6 +319,50 @@ def test_a_label_that_hangs_on_the_noise_estimate_is_unknown():
     assert ("unknown", "plastic") in got and sum(said == truth for said, truth in got) >= 18
 
 
+def _salt_and_pepper(image: np.ndarray, share: float, seed: int) -> np.ndarray:
+    """``image`` with ``share`` of its pixels black or white, as the sensor's salt and pepper."""
+    rng = np.random.default_rng(seed)
+    out = image.copy()
+    hit = rng.random(out.shape[:2]) < share
+    out[hit] = (rng.integers(0, 2, int(hit.sum())) * 255).astype(np.uint8)[:, None]
+    return out
+
+
+_EIGHT = [*_BRIGHT_AND_DARK, "plastic_red", "plastic_black"]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_heavy_salt_and_pepper_is_read_through_a_median_without_grain(seed):
+    """20 % of the pixels black or white pull every mean to grey and fake grain: read as
+    it is, yellow plastic is metal. Over 7.5 % the frame's 3x3 median is read, by its
+    albedo alone."""
+    img, fg, parts = _frame(_EIGHT, seed=seed)
+    noisy = _salt_and_pepper(img, 0.2, 50 + seed)
+    got = part_materials(noisy, fg, parts, settings=SETTINGS, backlit=False, impulses=0.2)
+    assert [g.material for g in got] == [MATERIALS[f].material for f in _EIGHT]
+    assert part_materials(noisy, fg, parts, settings=SETTINGS, backlit=False)[0].material == "metal"
+
+
+def test_light_salt_and_pepper_keeps_the_grain():
+    """Up to 7.5 % impulse noise the robust scales hold: the frame is read as it is, grain
+    and all (a median would take a metal's grain out with the specks)."""
+    img, fg, parts = _frame(_EIGHT, seed=1)
+    noisy = _salt_and_pepper(img, 0.05, 7)
+    got = part_materials(noisy, fg, parts, settings=SETTINGS, backlit=False, impulses=0.05)
+    assert got == part_materials(noisy, fg, parts, settings=SETTINGS, backlit=False)
+    assert [g.material for g in got] == [MATERIALS[f].material for f in _EIGHT]
+    assert got[1].confidence > 0.99  # brass: its grain counts, beyond the albedo's 0.95
+    grainless = part_materials(noisy, fg, parts, settings=SETTINGS, backlit=False, impulses=0.08)
+    assert grainless[1].confidence <= 0.95
+
+
+@pytest.mark.parametrize("impulses", [-0.1, 1.5, float("nan"), "0.1"])
+def test_part_materials_refuses_a_bad_impulse_share(impulses):
+    img, fg, parts = _frame(["steel"])
+    with pytest.raises(VisionError, match="impulses"):
+        part_materials(img, fg, parts, settings=SETTINGS, backlit=False, impulses=impulses)
+
+
 def test_part_materials_bad_input_names_the_argument():
     img, fg, parts = _frame(["steel"])
     with pytest.raises(VisionError, match="image"):

@@ -67,8 +67,8 @@ class VisionSettings:
     smooth: int = setting(
         3, lo=0, hi=15,
         doc="aperture of the Gaussian applied to a noisy frame before differencing (px, odd; "
-        "0 = off): the least; a noisier frame gets a wider one, up to 15, that leaves under "
-        "8.5 grey levels of its sensor noise",
+        "0 = off, and no median against salt and pepper either): the least; a noisier frame "
+        "gets a wider one, up to 15, that leaves under 8.5 grey levels of its sensor noise",
     )
     smooth_sigma: float = setting(
         0.0, lo=0.0, hi=5.0,

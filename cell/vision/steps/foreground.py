@@ -1,10 +1,11 @@
 """Step 1, foreground: which pixels are not the belt.
 
-A frame with impulse noise (salt and pepper: dead and hot pixels, black or white alone among
-their neighbours, :func:`impulse_share`) over 4 % of its pixels is replaced by its 3x3
-median first, the textbook cure (Gonzalez & Woods, *Digital Image Processing*, 5.3): the
-steps after it read the median. Below that the belt model's medians and the opening
-already ignore the specks, and a median would cost the outlines some precision.
+A frame with impulse noise (salt and pepper: dead and hot pixels, black or white alone
+among their neighbours, :func:`impulse_share`) over 4 % of its pixels is replaced by its
+3x3 median first (unless ``smooth`` is 0: no smoothing of any kind), the textbook cure
+(Gonzalez & Woods, *Digital Image Processing*, 5.3): the steps after it read the median.
+Below that the belt model's medians and the opening already ignore the specks, and a
+median would cost the outlines some precision.
 
 ``segmentation = "belt"`` (the default) learns the empty belt from the frame itself: a
 15-wide median over a 1/8-scale copy (120 px at full scale: 73 mm of the table seen by the
@@ -16,7 +17,10 @@ fills half its window and becomes belt, its middle lost. The
 difference image is the largest channel difference from that belt (grey levels), so a
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` sigma of the
-difference, sigma = 1.4826 x its MAD, at least ``belt_floor``); the outline step then
+difference, sigma = 1.4826 x its MAD, at least ``belt_floor``, and at least 1.5 of the
+grey steps a sensor of fewer bits leaves, :func:`grey_step`: under a light that falls
+off, such a belt is bands of flat colour a step apart, and no noise is left to measure);
+the outline step then
 re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is
 smoothed by a Gaussian first, 3x3 (``smooth``) or wider where the sensor's noise
 (:func:`noise_sigma`) asks for it: the smallest aperture up to 15 that leaves under 8.5
@@ -45,7 +49,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_colour, check_range
+from cell.vision._checks import check_colour, check_image, check_range
 from cell.vision.morphology import opening
 from cell.vision.settings import VisionSettings
 from cell.vision.threshold import (
@@ -57,7 +61,7 @@ from cell.vision.threshold import (
 )
 
 __all__ = ["BeltModel", "Foreground", "belt_model", "belt_scale", "colour_difference",
-           "find_foreground", "impulse_share", "noise_sigma"]
+           "find_foreground", "grey_step", "impulse_share", "noise_sigma"]
 
 _SCALE = 8  # the belt model's downscale factor, at least
 _MEDIAN = 15  # small pixels: the belt median's width
@@ -65,6 +69,7 @@ _WINDOW = 0.072  # m: the belt median's least width on the table (73 mm: the def
 _THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
 _IMPULSES = 0.04  # a frame with more impulse noise than this share of pixels is despeckled
+_STEPS = 1.5  # grey steps of the frame's quantisation the threshold stands at, at least
 _SMOOTHED = 8.5  # grey levels of noise the smoothing leaves at most, where it can
 _WIDEST_SMOOTHING = 15  # px: the smoothing's widest aperture
 
@@ -205,6 +210,22 @@ def impulse_share(image: np.ndarray) -> float:
     return isolated / (rows.shape[0] * (rows.shape[1] - 2))
 
 
+def grey_step(image: np.ndarray) -> int:
+    """The spacing of the grey levels a uint8 frame (any shape) uses: 2 ** (8 - bits) for
+    a sensor that keeps its top ``bits`` (1 for 8 bits): the largest power of two (up to
+    128) that divides all but 1 % of the values of every 8th row from row 4 (impulse noise's
+    white, 255, divides by none). 1 for a frame of under 5 rows."""
+    check_image("image", image)
+    rows = image[4::8]
+    if rows.size == 0:
+        return 1
+    values = rows.reshape(len(rows), -1)  # 2-D: OpenCV counts a 1-D array row by row, slowly
+    for k in range(7, 0, -1):
+        if cv2.countNonZero(values & np.uint8((1 << k) - 1)) <= 0.01 * values.size:
+            return 1 << k
+    return 1
+
+
 def _median_mad(values: np.ndarray) -> tuple[float, float]:
     """Median and MAD (scaled to a Gaussian sigma) of every 4th pixel of every 4th row."""
     sample = values[::4, ::4].ravel()
@@ -230,7 +251,7 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
     st = settings
     h, w = image.shape[:2]
     impulses = impulse_share(image)
-    if impulses > _IMPULSES:  # salt and pepper: the textbook cure, a median (Gonzalez & Woods 5.3)
+    if st.smooth and impulses > _IMPULSES:  # salt and pepper: the textbook cure, a median
         image = cv2.medianBlur(image, 3)
     belt = belt_model(image, scale=belt_scale(m_per_px))
     backlit = _is_backlit(belt.median, st.backlight_level)
@@ -245,7 +266,8 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
         if smoothed is not image:
             diff = colour_difference(smoothed, low, high)
             med, mad = _median_mad(diff)
-        t = min(max(float(st.belt_floor), med + st.noise_k * max(mad, 0.5)), 255.0)
+        floor = max(float(st.belt_floor), _STEPS * grey_step(image))  # (quantisation's bands)
+        t = min(max(floor, med + st.noise_k * max(mad, 0.5)), 255.0)
         if noise > _NOISY:  # the threshold stands high over faint parts: hysteresis
             mask = threshold_hysteresis(diff, low=st.belt_low * t, high=t)
         else:

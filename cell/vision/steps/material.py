@@ -31,6 +31,10 @@ grain alone, which a moulded part's shading can fake under directional light, do
 make it metal; a brighter or darker reading (a white balance off under directional light)
 leaves the chromaticity as it is. Under a back-light (or against a light table) a part is
 a silhouette: neither cue exists and the material is ``"unknown"`` rather than a guess.
+A sensor of fewer bits (:func:`~cell.vision.steps.foreground.grey_step`) truncates: every
+mean is raised by half a step, and from steps of 8 grey levels (5 bits) the grain does
+not count (finer than a step, it is gone, and its absence says nothing); with four levels
+a channel or fewer (2 bits) there is no colour to read, and every material is unknown.
 A frame with over 7.5 % impulse noise (salt and pepper; below it the robust scales hold)
 is read through its 3x3 median, and the grain does not count (the median takes it out with
 the specks): the albedo decides alone, within 0.05..0.95.
@@ -58,7 +62,7 @@ from cell.errors import VisionError
 from cell.vision._checks import check_range
 from cell.vision.colour import unclipped_mean
 from cell.vision.settings import VisionSettings
-from cell.vision.steps.foreground import noise_sigma
+from cell.vision.steps.foreground import grey_step, noise_sigma
 
 __all__ = ["MaterialFeatures", "MaterialLabel", "PartPixels", "classify_material",
            "material_features", "part_materials"]
@@ -87,6 +91,8 @@ _FINISH_ALBEDO = np.array([np.array(m.rgba[:3]) * (_GRAIN_MEAN if m.material == 
 _FINISH_METAL = np.array([m.material == "metal" for m in MATERIALS.values()])
 _PRIOR_FLOOR, _OFF_HUE_FLOOR = 0.05, 0.01  # the prior's floor; for a colour no metal has
 _OFF_HUE = 0.12  # chromaticity distance from every metal finish's that no metal reads at
+_GRAINLESS_STEP = 8  # grey levels: a frame quantised this coarsely (5 bits) shows no grain
+_COLOURLESS_STEP = 64  # grey levels: nor any colour (2 bits: four levels a channel)
 _GRAINLESS = 0.075  # a frame with more impulse noise than this share is read without grain
 _CLIPPING = 20.0  # grey levels: a noisier frame has its colours read again at _SIGMA_LOW x
 _SIGMA_LOW = 1.25  # the noise the frame's estimate may hide where the sensor clips it
@@ -165,6 +171,10 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
     grain = impulses <= _GRAINLESS
     if not grain:
         image = cv2.medianBlur(image, 3)
+    step = grey_step(image)
+    if step >= _COLOURLESS_STEP:  # four grey levels a channel or fewer: no colour to read
+        return [_UNKNOWN] * len(parts)
+    grain = grain and step < _GRAINLESS_STEP  # a metal's grain is finer than 8 grey levels
     out = [_UNKNOWN] * len(parts)
     rows, stats, belts, belt_means = [], [], [], []
     frame_belt = None  # the median of the frame's free pixels, on first need
@@ -184,6 +194,8 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
             belt_means.append(belt is not frame_belt)
     if rows:
         stats, belts, sigma = np.array(stats), np.array(belts), noise_sigma(image)
+        stats[:, _MEAN : _MEAN + 3] += (step - 1) / 2  # a sensor that truncates reads darker
+        belts += (step - 1) / 2
         labels = _frame_labels(stats, belts, np.array(belt_means), sigma, settings, grain)
         if sigma > _CLIPPING:  # the decision must not hang on the noise estimate
             alt = _frame_labels(stats, belts, np.array(belt_means), sigma * _SIGMA_LOW, settings,

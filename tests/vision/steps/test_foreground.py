@@ -13,6 +13,7 @@ from cell.vision.steps.foreground import (
     belt_scale,
     colour_difference,
     find_foreground,
+    grey_step,
     impulse_share,
     noise_sigma,
 )
@@ -162,6 +163,38 @@ def test_salt_and_pepper_is_taken_out_by_a_median_first(seed):
     few[4, 100], few[12, 200] = 255, 0  # a few hot and dead pixels: no median
     clean = find_foreground(few, VisionSettings())
     assert 0 < clean.impulses < 0.04 and clean.image is few
+    unsmoothed = find_foreground(img, VisionSettings(smooth=0))  # no smoothing of any kind
+    assert unsmoothed.impulses == fg.impulses and unsmoothed.image is img
+
+
+def test_grey_step_reads_the_bits_a_sensor_kept():
+    img = _noisy(drawn.frame(), 6, 0)
+    assert grey_step(img) == 1
+    for bits in (7, 4, 2):
+        step = 1 << (8 - bits)
+        quantised = img & np.uint8(256 - step)
+        assert grey_step(quantised) == step
+        quantised[4::8][:, ::150] = 255  # a few hot pixels (under 1 %) do not hide it
+        assert grey_step(quantised) == step and grey_step(quantised[..., 0]) == step
+    assert grey_step(img[:4]) == 1  # no row 4: nothing to read
+    with pytest.raises(VisionError, match="image"):
+        grey_step(img.astype(np.float32))
+
+
+def test_quantisation_bands_are_no_foreground():
+    """A 4-bit sensor (steps of 16 grey levels) under a light that falls off across the
+    belt: the belt is bands of flat colour, whose edges stand a full step off the belt
+    model; at the frame's own noise level (none left: 8, the floor) they were 500-odd
+    specks and the bolt lay among them. The threshold stands at 1.5 steps at least."""
+    img = drawn.frame().astype(np.float64) * np.linspace(0.7, 1.3, 640)[None, :, None]
+    part = np.zeros(img.shape[:2], np.uint8)
+    cv2.rectangle(part, drawn.mm(-5, -20), drawn.mm(5, 20), 1, -1)  # a blue plastic bar
+    img[part > 0] = (11, 40, 160)
+    img = _noisy(img, 1.5, 3) & np.uint8(0xF0)
+    fg = find_foreground(img, VisionSettings())
+    assert fg.threshold == 24.0
+    assert (fg.mask[part > 0] > 0).mean() > 0.95
+    assert cv2.countNonZero(fg.mask) - cv2.countNonZero(fg.mask * part) < 20
 
 
 def test_a_noisy_frame_keeps_more_of_a_faint_part_by_hysteresis():

@@ -363,6 +363,22 @@ def test_part_materials_refuses_a_bad_impulse_share(impulses):
         part_materials(img, fg, parts, settings=SETTINGS, backlit=False, impulses=impulses)
 
 
+def test_a_coarsely_quantised_frame_is_read_without_grain_and_half_a_step_up():
+    """A 3-bit sensor (steps of 32, truncating): no grain survives it, yet its absence
+    counted against metal (steel read plastic), and every mean reads half a step dark.
+    From steps of 8 the grain does not count and the means are raised by half a step."""
+    img, fg, parts = _frame(_EIGHT, seed=2)
+    coarse = img & np.uint8(0xE0)
+    got = part_materials(coarse, fg, parts, settings=SETTINGS, backlit=False)
+    assert [g.material for g in got] == [MATERIALS[f].material for f in _EIGHT]
+
+
+def test_four_grey_levels_a_channel_have_no_colour_to_read():
+    img, fg, parts = _frame(_EIGHT, seed=2)
+    got = part_materials(img & np.uint8(0xC0), fg, parts, settings=SETTINGS, backlit=False)
+    assert got == [("unknown", 0.0)] * len(_EIGHT)
+
+
 def test_part_materials_bad_input_names_the_argument():
     img, fg, parts = _frame(["steel"])
     with pytest.raises(VisionError, match="image"):

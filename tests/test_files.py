@@ -45,7 +45,17 @@ def test_input_bytes_come_from_regular_files_only(tmp_path):
             read_input_bytes(path, "x", kind="scenario file", limit=10, error=CellError)
 
 
-def test_signals_held_delivers_a_signal_after_the_block(tmp_path):
+@pytest.fixture
+def sigint_default():
+    """SIGINT handled as Python sets it up in a foreground process (KeyboardInterrupt): a
+    test run started in the background (``make test &``) inherits SIGINT ignored, and Python
+    then leaves it so."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+def test_signals_held_delivers_a_signal_after_the_block(tmp_path, sigint_default):
     done = []
     with pytest.raises(KeyboardInterrupt), signals_held():
         os.kill(os.getpid(), signal.SIGINT)
@@ -73,7 +83,8 @@ def test_staged_files_that_fail_leave_every_target_as_it_was(tmp_path):
     assert {p.read_text() for p in tmp_path.iterdir()} == {"old"}
 
 
-def test_staged_files_interrupted_between_the_renames_are_all_renamed(tmp_path, monkeypatch):
+def test_staged_files_interrupted_between_the_renames_are_all_renamed(tmp_path, monkeypatch,
+                                                                      sigint_default):
     _old_files(tmp_path)
     real_replace, renamed = os.replace, []
 
@@ -93,7 +104,22 @@ def test_staged_files_interrupted_between_the_renames_are_all_renamed(tmp_path, 
     assert {p.read_text() for p in tmp_path.iterdir()} == {"new"}
 
 
-def test_a_failure_inside_signals_held_is_reported_not_the_signal_it_held():
+def test_an_ignored_signal_stays_ignored_through_signals_held():
+    """A process that ignores SIGINT (started in the background) still ignores it after
+    the block: the held signal goes to the handler it would have reached, none."""
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        done = []
+        with signals_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            done.append("inside")
+        done.append("after")
+        assert done == ["inside", "after"] and signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+def test_a_failure_inside_signals_held_is_reported_not_the_signal_it_held(sigint_default):
     with pytest.raises(ValueError, match="the real error"), signals_held():
         os.kill(os.getpid(), signal.SIGINT)
         raise ValueError("the real error")

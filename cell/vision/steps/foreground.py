@@ -18,8 +18,9 @@ difference image is the largest channel difference from that belt (grey levels),
 red part on a blue belt differs as much as a bright one on a dark belt. It is
 thresholded at the frame's own noise level (median + ``noise_k`` sigma of the
 difference, sigma = 1.4826 x its MAD, at least ``belt_floor``, and at least 1.5 of the
-grey steps a sensor of fewer bits leaves, :func:`grey_step`: under a light that falls
-off, such a belt is bands of flat colour a step apart, and no noise is left to measure);
+grey steps a sensor of 3 to 7 bits leaves, :func:`grey_step`: under a light that falls
+off, such a belt is bands of flat colour a step apart, and no noise is left to measure;
+a coarser step is as large as a part's contrast);
 the outline step then
 re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is
 smoothed by a Gaussian first, 3x3 (``smooth``) or wider where the sensor's noise
@@ -69,7 +70,8 @@ _WINDOW = 0.072  # m: the belt median's least width on the table (73 mm: the def
 _THREE = np.ones((1, 3), np.uint8)
 _NOISY = 2.0  # grey levels: a frame noisier than this is smoothed for the outlines
 _IMPULSES = 0.04  # a frame with more impulse noise than this share of pixels is despeckled
-_STEPS = 1.5  # grey steps of the frame's quantisation the threshold stands at, at least
+_STEPS = 1.5  # grey steps of the frame's quantisation the threshold stands at, at least,
+_WIDEST_BANDS = 32  # for steps up to this (3 bits); a coarser step is a part's contrast
 _SMOOTHED = 8.5  # grey levels of noise the smoothing leaves at most, where it can
 _WIDEST_SMOOTHING = 15  # px: the smoothing's widest aperture
 
@@ -266,7 +268,9 @@ def find_foreground(image: np.ndarray, settings: VisionSettings, *,
         if smoothed is not image:
             diff = colour_difference(smoothed, low, high)
             med, mad = _median_mad(diff)
-        floor = max(float(st.belt_floor), _STEPS * grey_step(image))  # (quantisation's bands)
+        step = grey_step(image)
+        bands = _STEPS * step if step <= _WIDEST_BANDS else 0.0  # (quantisation's bands)
+        floor = max(float(st.belt_floor), bands)
         t = min(max(floor, med + st.noise_k * max(mad, 0.5)), 255.0)
         if noise > _NOISY:  # the threshold stands high over faint parts: hysteresis
             mask = threshold_hysteresis(diff, low=st.belt_low * t, high=t)

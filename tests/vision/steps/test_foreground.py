@@ -181,6 +181,16 @@ def test_grey_step_reads_the_bits_a_sensor_kept():
         grey_step(img.astype(np.float32))
 
 
+def test_a_step_as_coarse_as_a_contrast_sets_no_floor():
+    """From 2 bits (steps of 64) a step is as large as the contrasts to be seen: a drawn
+    frame of black and 128 (step 128) keeps the belt floor of 8, not 192."""
+    img = np.zeros((240, 320, 3), np.uint8)
+    cv2.circle(img, (160, 120), 30, (128, 128, 128), -1)
+    fg = find_foreground(img, VisionSettings())
+    assert grey_step(img) == 128 and fg.threshold == 8.0
+    assert cv2.countNonZero(fg.mask) > 0.95 * np.pi * 30**2
+
+
 def test_quantisation_bands_are_no_foreground():
     """A 4-bit sensor (steps of 16 grey levels) under a light that falls off across the
     belt: the belt is bands of flat colour, whose edges stand a full step off the belt

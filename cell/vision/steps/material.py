@@ -213,9 +213,9 @@ def _frame_labels(stats: np.ndarray, belts: np.ndarray, belt_means: np.ndarray, 
     """Labels of parts from their statistics rows (P, 9) and belt colours (P, 3), those
     marked in ``belt_means`` being means (grey levels); the means, not the medians, are
     taken back to before the sensor clipped a noise of ``sigma`` (:func:`unclipped_mean`)."""
-    belts = belts.copy()
-    belts[belt_means] = unclipped_mean(belts[belt_means], sigma=sigma)
-    means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=sigma)
+    belts, clip = belts.copy(), min(sigma, 255.0)  # (a crafted frame's estimate may read more)
+    belts[belt_means] = unclipped_mean(belts[belt_means], sigma=clip)
+    means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=clip)
     rows = _grain(stats, sigma)
     if not grain:  # no evidence either way: no grain seen, nor any visible
         rows[:, 1:3] = 0.0

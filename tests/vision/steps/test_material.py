@@ -379,6 +379,18 @@ def test_four_grey_levels_a_channel_have_no_colour_to_read():
     assert got == [("unknown", 0.0)] * len(_EIGHT)
 
 
+def test_a_noise_estimate_beyond_255_is_no_error(monkeypatch):
+    """A crafted frame's noise estimate can read over 200 grey levels (1.4826 x a MAD of up
+    to 255, over sqrt 2), and the second reading takes 1.25x that: the clipping is undone
+    with at most 255, not refused as an argument out of range."""
+    import cell.vision.steps.material as material
+
+    img, fg, parts = _frame(["steel", "plastic_yellow"])
+    monkeypatch.setattr(material, "noise_sigma", lambda image: 240.0)
+    got = part_materials(img, fg, parts, settings=SETTINGS, backlit=False)
+    assert len(got) == 2 and all(g.material in ("metal", "plastic", "unknown") for g in got)
+
+
 def test_part_materials_bad_input_names_the_argument():
     img, fg, parts = _frame(["steel"])
     with pytest.raises(VisionError, match="image"):

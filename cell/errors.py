@@ -42,7 +42,8 @@ class MotionError(RobotError):
 
 class GraspError(MotionError):
     """The vacuum switch reports no part held: the grasp never sealed (``lost`` False) or
-    the part fell off the cup on its way to the bin (``lost`` True)."""
+    the part fell off the cup on its way to the bin (``lost`` True); or it reports one
+    still held after the cup was vented over the bin (``lost`` True: jammed on the tool)."""
 
     def __init__(self, message: str, *, lost: bool = False) -> None:
         super().__init__(message)

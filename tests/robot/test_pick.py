@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cell.catalogue import KINDS
-from cell.errors import IKError, MotionError, RobotError
+from cell.errors import GraspError, IKError, MotionError, RobotError
 from cell.robot.pick import PartTarget, PickPlace
 from cell.scenario import scenario_from_dict
 from cell.sim import World, layout
@@ -74,6 +74,26 @@ def test_an_aborted_pick_that_cannot_get_home_says_so(cell, monkeypatch):
         skill.run(empty)  # (the failed homing was swallowed without a word)
     monkeypatch.undo()
     skill.driver.move(HOME)
+
+
+def test_a_part_that_stays_on_the_vented_cup_is_reported_not_placed(cell, monkeypatch):
+    """A part jammed on the tool (a nut pressed against the stem, inside the bellows) keeps
+    the switch reading after the vent: the pick says so (lost) instead of reporting it
+    placed while the arm carries it home."""
+    world, skill, _ = cell
+    part = world.place_next_part(0.0, layout.CONVEYOR_Y, 0.0)
+    world.step(50)
+    pos, _ = world.part_pose(part.id)
+    reading = skill.cup.reading
+    monkeypatch.setattr(skill.cup, "reading", lambda: reading() if skill.cup.is_on else 1.1)
+    with pytest.raises(GraspError, match="stayed on the cup when it was vented over bin "
+                                         "'metal'.*1.10 N") as caught:
+        skill.run(PartTarget(part.kind, pos[0], pos[1], world.part_yaw(part.id), "metal"))
+    assert caught.value.lost and not skill.cup.is_on
+    monkeypatch.undo()
+    world.step(150)
+    assert world.place_of(part.id) == "metal"  # (here it was not jammed: it fell in)
+    assert np.abs(skill.driver.joint_positions()[:5] - HOME[:5]).max() < 0.01  # back home
 
 
 def test_vacuum_switch_reads_a_held_part_and_an_open_cup(cell):

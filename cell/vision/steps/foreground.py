@@ -20,17 +20,15 @@ thresholded at the frame's own noise level (median + ``noise_k`` sigma of the
 difference, sigma = 1.4826 x its MAD, at least ``belt_floor``, and at least 1.5 of the
 grey steps a sensor of 3 to 7 bits leaves, :func:`grey_step`: under a light that falls
 off, such a belt is bands of flat colour a step apart, and no noise is left to measure;
-a coarser step is as large as a part's contrast);
-the outline step then
-re-thresholds each blob in its own box. A noisy frame (that sigma over 2 grey levels) is
-smoothed by a Gaussian first, 3x3 (``smooth``) or wider where the sensor's noise
+a coarser step is as large as a part's contrast); the outline step then re-thresholds
+each blob in its own box. A noisy frame (that sigma over 2 grey levels) is smoothed by a
+Gaussian first, 3x3 (``smooth``) or wider where the sensor's noise
 (:func:`noise_sigma`) asks for it: the smallest aperture up to 15 that leaves under 8.5
 grey levels of that noise (7x7 at 40 grey levels, 13x13 at 60). It is thresholded with
 hysteresis: its threshold stands high over a faint part's contrast, so a pixel above
 ``belt_low`` times the threshold is foreground too where it connects to one above it,
 and a faint part that is clear somewhere is one group of pixels, not fragments (Canny,
-1986, applied to regions). A bright, colourless belt is
-a light table (``backlit``).
+1986, applied to regions). A bright, colourless belt is a light table (``backlit``).
 
 The textbook methods threshold the grey image instead, with the syllabus functions of
 :mod:`cell.vision.threshold`: ``fixed`` (``threshold``), ``otsu``, ``iterative``
@@ -213,7 +211,7 @@ def impulse_share(image: np.ndarray) -> float:
 
 
 def grey_step(image: np.ndarray) -> int:
-    """The spacing of the grey levels a uint8 frame (any shape) uses: 2 ** (8 - bits) for
+    """The spacing of the grey levels a uint8 frame, (H, W) or (H, W, 3), uses: 2 ** (8 - bits) for
     a sensor that keeps its top ``bits`` (1 for 8 bits): the largest power of two (up to
     128) that divides all but 1 % of the values of every 8th row from row 4 (impulse noise's
     white, 255, divides by none). 1 for a frame of under 5 rows."""

@@ -249,10 +249,11 @@ class PickPlace:
         self.cup.off()
         self._wait_for(lambda: self.cup.reading() < 0.01, self.settings.release_time + 0.2)
         self.driver.wait(self.settings.release_time)
-        if self.cup.reading() >= self.cup.seal_force:  # vented, yet a part still presses on it
+        held = self.cup.reading()
+        if held >= self.cup.seal_force:  # vented, yet a part still presses on the cup
             raise GraspError(f"{name} stayed on the cup when it was vented over bin "
-                             f"'{part.bin}': the vacuum switch still reads "
-                             f"{self.cup.reading():.2f} N (jammed on the tool)", lost=True)
+                             f"'{part.bin}': the vacuum switch still reads {held:.2f} N "
+                             f"(jammed on the tool)", lost=True)
         segs.append(d.move(wp["home"], what="home", tolerance=via))
         return segs
 

@@ -93,7 +93,7 @@ _PRIOR_FLOOR, _OFF_HUE_FLOOR = 0.05, 0.01  # the prior's floor; for a colour no 
 _OFF_HUE = 0.12  # chromaticity distance from every metal finish's that no metal reads at
 _GRAINLESS_STEP = 8  # grey levels: a frame quantised this coarsely (5 bits) shows no grain
 _COLOURLESS_STEP = 64  # grey levels: nor any colour (2 bits: four levels a channel)
-_GRAINLESS = 0.075  # a frame with more impulse noise than this share is read without grain
+_GRAINLESS_IMPULSES = 0.075  # a frame with more impulse noise than this share: no grain
 _CLIPPING = 20.0  # grey levels: a noisier frame has its colours read again at _SIGMA_LOW x
 _SIGMA_LOW = 1.25  # the noise the frame's estimate may hide where the sensor clips it
 
@@ -104,8 +104,9 @@ def _chromaticity(rgb: np.ndarray) -> np.ndarray:
 
 
 _METAL_CHROMATICITY = _chromaticity(_FINISH_ALBEDO[_FINISH_METAL])
-# columns of a statistics row (_statistics)
+# columns of a statistics row (_statistics) and of a grain row (_grain)
 _N, _KEPT, _MEAN, _NORM, _S_PAR, _S_NOISE2, _UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
+_GRAIN_Z, _GRAIN_VISIBILITY = 1, 2
 
 
 @dataclass(frozen=True)
@@ -168,7 +169,7 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
         raise VisionError(f"part_materials: argument 'settings' must be VisionSettings, got "
                           f"{type(settings).__name__}")
     impulses = check_range("impulses", impulses, 0.0, 1.0)
-    grain = impulses <= _GRAINLESS
+    grain = impulses <= _GRAINLESS_IMPULSES
     if not grain:
         image = cv2.medianBlur(image, 3)
     step = grey_step(image)
@@ -218,7 +219,7 @@ def _frame_labels(stats: np.ndarray, belts: np.ndarray, belt_means: np.ndarray, 
     means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=clip)
     rows = _grain(stats, sigma)
     if not grain:  # no evidence either way: no grain seen, nor any visible
-        rows[:, 1:3] = 0.0
+        rows[:, _GRAIN_Z] = rows[:, _GRAIN_VISIBILITY] = 0.0
     return _labels(_albedo(means, belts, settings.belt_rgb), rows,
                    grain_metal=settings.grain_metal, grain_z_min=settings.grain_z_min,
                    albedo_sigma=settings.albedo_sigma)

@@ -4,7 +4,9 @@ The camera file is the ``camera.json`` that ``cell snapshot`` writes (width, hei
 dist, T_world_camera in OpenCV axes), or a user's own with the same keys, or a
 calibration file that ``cell calibrate`` writes, with ``--camera-name NAME`` to pick its
 camera (a fixed camera: a wrist camera's pose depends on the arm's, which an image file
-does not carry). Detector
+does not carry). A lossy JPEG (subsampled chroma, or quantisation coarser than quality
+98's) is detected with a warning on stderr and under ``warnings`` in the JSON: its
+artefacts cost parts and materials (the README's compression study). Detector
 settings come from the ``[vision]`` section of ``--scenario FILE`` (defaults without
 one), then ``--set key=value`` overrides: ``vision.segmentation=otsu``, or simply
 ``segmentation=otsu`` (a key of the vision section needs no prefix). ``--set`` takes
@@ -32,7 +34,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+from PIL import Image, JpegImagePlugin, UnidentifiedImageError
 
 from cell.calib.calfile import SCHEMA
 from cell.camera import CameraModel, read_json_file
@@ -99,14 +101,16 @@ def main(argv: list[str]) -> int:
         scenario = scenario_from_dict({}, overrides=overrides)
     camera = _camera(args.camera, args.camera_name)
     path = Path(args.image)
-    rgb = _read_image(path, camera)
+    rgb, warnings = _read_image(path, camera)
+    for warning in warnings:
+        print(f"cell detect: warning: {warning}", file=sys.stderr)
     detector = PartDetector(scenario.vision)
     t0 = time.perf_counter()
     detections = detector.detect(rgb, camera)
     ms = (time.perf_counter() - t0) * 1e3
     _check_finite(detections)
     if args.json:
-        print(json.dumps({"image": str(path), "latency_ms": ms,
+        print(json.dumps({"image": str(path), "latency_ms": ms, "warnings": warnings,
                           "detections": [d.to_dict() for d in detections]}, indent=2, allow_nan=False))
         return 0
     print(f"{_shown(path)}: {len(detections)} detection(s) in {ms:.1f} ms")
@@ -139,13 +143,14 @@ def _camera(path: str, name: str | None) -> CameraModel:
 _GREY_MODES = ("1", "L", "LA", "La", "I", "I;16", "I;16B", "I;16L", "I;16N", "F")  # Pillow's
 
 
-def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
-    """The image at ``path`` as uint8 RGB, its size checked against ``camera`` before decoding.
-    A grey image is refused (the detector tells metal from plastic, and shadows from parts,
-    by colour); an EXIF orientation is not applied (the pixels as the camera took them: the
-    camera model describes those)."""
+def _read_image(path: Path, camera: CameraModel) -> tuple[np.ndarray, list[str]]:
+    """The image at ``path`` as uint8 RGB, its size checked against ``camera`` before
+    decoding, and warnings about it (a lossy JPEG, :func:`_jpeg_warning`). A grey image is
+    refused (the detector tells metal from plastic, and shadows from parts, by colour); an
+    EXIF orientation is not applied (the pixels as the camera took them: the camera model
+    describes those)."""
     _check_image_file(path)
-    (w, h), mode = _header(path)
+    (w, h), mode, jpeg = _header(path)
     if mode in _GREY_MODES:
         raise VisionError(f"image file {str(path)!r} is a grey image (mode {mode}): the detector "
                           "needs colour (RGB), which tells metal from plastic and a shadow from a part")
@@ -162,7 +167,30 @@ def _read_image(path: Path, camera: CameraModel) -> np.ndarray:
     if bgr is None:
         why = " ".join(said.read().split())[:120] or "damaged or truncated?"
         raise VisionError(f"image file {str(path)!r}: cannot decode the image ({_plain(why)})")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    warning = _jpeg_warning(path, *jpeg) if jpeg is not None else None
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), [warning] if warning else []
+
+
+_JPEG_SAMPLING = {1: "4:2:2", 2: "4:2:0"}  # Pillow's get_sampling codes of subsampled chroma
+_FINE_STEP = 5  # a JPEG's largest quantisation step at quality 98 (the IJG tables)
+
+
+def _jpeg_warning(path: Path, sampling: int, step: int) -> str | None:
+    """Why a JPEG's pixels are not what the detector is measured on (None: they nearly
+    are): chroma subsampled (``sampling``, Pillow's code) or quantisation steps coarser
+    than quality 98's (``step``, the largest in its tables). The compression study
+    (README, *What the studies found*) measured the loss."""
+    why = []
+    if sampling in _JPEG_SAMPLING:
+        why.append(f"{_JPEG_SAMPLING[sampling]} chroma")
+    if step > _FINE_STEP:
+        why.append(f"quantisation steps up to {step}, coarser than quality 98's")
+    if not why:
+        return None
+    return (f"image file {str(path)!r} is a lossy JPEG ({', '.join(why)}): its artefacts move "
+            "outlines and fake or hide a metal's grain, so parts are missed and materials "
+            "misread; the detector keeps its figures on lossless frames (PNG) or JPEG of "
+            "4:4:4 chroma from quality 98")
 
 
 @contextlib.contextmanager
@@ -209,9 +237,10 @@ def _image_bytes(path: Path) -> bytes:
         raise VisionError(f"image file {str(path)!r}: cannot read it ({exc.strerror})") from None
 
 
-def _header(path: Path) -> tuple[tuple[int, int], str]:
-    """(width, height) and Pillow's mode from the image file's header; the pixels are not
-    decoded.
+def _header(path: Path) -> tuple[tuple[int, int], str, tuple[int, int] | None]:
+    """(width, height), Pillow's mode and, for a JPEG, (its chroma sampling as Pillow's
+    ``get_sampling`` codes it, its largest quantisation step), else None, from the image
+    file's header; the pixels are not decoded.
 
     Pillow's own decompression-bomb limit is lifted for this read (it would refuse a
     huge image without saying its size); ``MAX_PIXELS`` is checked by the caller.
@@ -219,7 +248,12 @@ def _header(path: Path) -> tuple[tuple[int, int], str]:
     limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         with Image.open(path) as im:
-            return im.size, im.mode
+            jpeg = None
+            if im.format == "JPEG":
+                tables = getattr(im, "quantization", None) or {}
+                jpeg = (JpegImagePlugin.get_sampling(im),
+                        max((max(t) for t in tables.values() if len(t)), default=0))
+            return im.size, im.mode, jpeg
     except UnidentifiedImageError:
         raise VisionError(f"image file {str(path)!r} is not an image (PNG, JPEG, ...) or its "
                           f"format is unknown") from None

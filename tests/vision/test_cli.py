@@ -339,3 +339,38 @@ def test_a_jpeg_exif_orientation_is_not_applied(snapshot, tmp_path, capsys):
     xs = sorted(d["position"][0] for d in json.loads(capsys.readouterr().out)["detections"])
     truth = json.loads((snapshot / "truth.json").read_text())
     assert xs == pytest.approx(truth, abs=1e-3)
+
+
+@pytest.mark.parametrize(("quality", "subsampling", "why"), [
+    (90, 2, "4:2:0 chroma, quantisation steps up to"),
+    (100, 2, "4:2:0 chroma)"),
+    (90, 0, "(quantisation steps up to"),
+])
+def test_a_lossy_jpeg_is_detected_with_a_warning(snapshot, tmp_path, capsys, quality,
+                                                 subsampling, why):
+    # (its artefacts cost parts and materials: the compression study; the user is told)
+    from PIL import Image
+
+    path = tmp_path / "frame.jpg"
+    with Image.open(snapshot / "rgb.png") as im:
+        im.convert("RGB").save(path, quality=quality, subsampling=subsampling)
+    assert main([str(path), "--camera", str(snapshot / "camera.json"), "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("cell detect: warning: image file ")
+    assert f"'{path}' is a lossy JPEG" in lines[0] and why in lines[0]
+    assert out["warnings"] == [lines[0].removeprefix("cell detect: warning: ")]
+    assert len(out["detections"]) == 2
+
+
+def test_a_png_or_a_fine_jpeg_gives_no_warning(snapshot, tmp_path, capsys):
+    from PIL import Image
+
+    fine = tmp_path / "fine.jpg"
+    with Image.open(snapshot / "rgb.png") as im:
+        im.convert("RGB").save(fine, quality=98, subsampling=0)
+    for path in (snapshot / "rgb.png", fine):
+        assert main([str(path), "--camera", str(snapshot / "camera.json"), "--json"]) == 0
+        captured = capsys.readouterr()
+        assert captured.err == "" and json.loads(captured.out)["warnings"] == []

@@ -18,7 +18,7 @@ from cell.catalogue import KINDS
 from cell.sweep.scoring import part_at
 from cell.vision.detector import StepTimes
 
-__all__ = ["REQUIRED", "STEPS", "Tally", "score_frame", "summarise"]
+__all__ = ["REQUIRED", "STEPS", "Tally", "failures", "score_frame", "summarise"]
 
 STEPS = tuple(f.name for f in fields(StepTimes))  # the detector's steps, as timed
 REQUIRED = {"material": 0.995, "kind": 0.99, "pos_p95_mm": 1.0, "yaw_p95_deg": 2.0,
@@ -159,5 +159,35 @@ def summarise(stats: dict[str, Tally], scenes: int, seed_base: int, parts: int) 
             "material_errors": sorted(set(s.material_errors))[:10],
             "kind_errors": sorted(set(s.kind_errors))[:10],
         }
-    return {"scenes_per_preset": scenes, "parts_per_scene": parts,
-            "seed_base": seed_base, "required": REQUIRED, "presets": rows}
+    out = {"scenes_per_preset": scenes, "parts_per_scene": parts,
+           "seed_base": seed_base, "required": REQUIRED, "presets": rows}
+    out["failures"] = failures(out)
+    out["meets_required"] = not out["failures"]
+    return out
+
+
+_BARS = (("kind_accuracy", "kind", "<"), ("position_p95_mm", "pos_p95_mm", ">"),
+         ("yaw_p95_deg", "yaw_p95_deg", ">"), ("latency_ms", "latency_ms", ">"),
+         ("latency_over_render", "latency_over_render", ">"))
+
+
+def failures(report: dict) -> list[str]:
+    """The must-reach bars (``REQUIRED``) a report misses, one line each ("dim
+    latency_ms 12.3 > 5"): per preset material (``back``: none wrong; it may be unknown),
+    kind, position and yaw p95, latency and its ratio to the render; the cold start when
+    the report has one. A figure with no samples misses its bar ("no figure")."""
+    out = []
+    for preset, r in report["presets"].items():
+        bars = _BARS if preset == "back" else (("material_accuracy", "material", "<"), *_BARS)
+        for key, bar, worse in bars:
+            value, limit = r[key], REQUIRED[bar]
+            if value is None:
+                out.append(f"{preset} {key}: no figure")
+            elif (value < limit) if worse == "<" else (value > limit):
+                out.append(f"{preset} {key} {value:.4g} {worse} {limit:g}")
+        if preset == "back" and r["material_wrong"]:
+            out.append(f"back material_wrong {r['material_wrong']} > 0")
+    cold = report.get("cold")
+    if cold is not None and cold["first_detection_s"] > REQUIRED["cold_s"]:
+        out.append(f"cold first_detection_s {cold['first_detection_s']:.3g} > {REQUIRED['cold_s']:g}")
+    return out

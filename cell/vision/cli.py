@@ -249,7 +249,7 @@ def _header(path: Path) -> tuple[tuple[int, int], str, tuple[int, int] | None]:
     try:
         with Image.open(path) as im:
             jpeg = None
-            if im.format == "JPEG":
+            if isinstance(im, JpegImagePlugin.JpegImageFile):  # (MPO too: JPEG frames)
                 tables = getattr(im, "quantization", None) or {}
                 jpeg = (JpegImagePlugin.get_sampling(im),
                         max((max(t) for t in tables.values() if len(t)), default=0))

@@ -74,3 +74,46 @@ def test_latency_per_part_divides_by_the_parts_in_view_not_the_background():
     r = run(scenes=1, parts=1, presets=["front"])["presets"]["front"]
     assert r["parts"] + r["missed"] + r["partial_ok"] + r["partial_wrong"] == 1  # the one part is in view
     assert r["latency_per_part_ms"] == pytest.approx(r["latency_ms"])
+
+
+def _report(**changes):
+    row = {"material_accuracy": 1.0, "material_wrong": 0, "kind_accuracy": 1.0,
+           "position_p95_mm": 0.4, "yaw_p95_deg": 0.9, "latency_ms": 4.0,
+           "latency_over_render": 0.3}
+    presets = {"front": dict(row), "back": dict(row, material_accuracy=0.0)}
+    for key, value in changes.items():
+        preset, field = key.split("__")
+        presets[preset][field] = value
+    return {"presets": presets}
+
+
+def test_the_verdict_names_each_bar_missed():
+    from cell.benchmarks.vision_score import failures
+
+    assert failures(_report()) == []  # (back's material is unknown: allowed)
+    assert failures(_report(front__latency_ms=33.8, back__latency_over_render=1.56)) == [
+        "front latency_ms 33.8 > 5", "back latency_over_render 1.56 > 0.5"]
+    assert failures(_report(front__material_accuracy=0.99, front__kind_accuracy=None)) == [
+        "front material_accuracy 0.99 < 0.995", "front kind_accuracy: no figure"]
+    assert failures(_report(back__material_wrong=2, front__yaw_p95_deg=2.5,
+                            front__position_p95_mm=1.2)) == [
+        "front position_p95_mm 1.2 > 1", "front yaw_p95_deg 2.5 > 2",
+        "back material_wrong 2 > 0"]
+    slow = dict(_report(), cold={"first_detection_s": 6.2})
+    assert failures(slow) == ["cold first_detection_s 6.2 > 5"]
+
+
+def test_the_report_carries_its_verdict(capsys):
+    from cell.benchmarks.vision import _print
+    from cell.benchmarks.vision_score import failures
+
+    report = run(scenes=1, presets=["front"])
+    assert report["failures"] == failures(report)
+    assert report["meets_required"] == (not report["failures"])
+    _print(report)
+    last = capsys.readouterr().out.splitlines()[-1]
+    if report["meets_required"]:
+        assert last == "required: met"
+    else:
+        assert last == f"required: NOT met ({len(report['failures'])}: " \
+            f"{'; '.join(report['failures'])})"

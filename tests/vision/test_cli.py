@@ -341,19 +341,22 @@ def test_a_jpeg_exif_orientation_is_not_applied(snapshot, tmp_path, capsys):
     assert xs == pytest.approx(truth, abs=1e-3)
 
 
-@pytest.mark.parametrize(("quality", "subsampling", "why"), [
-    (90, 2, "4:2:0 chroma, quantisation steps up to"),
-    (100, 2, "4:2:0 chroma)"),
-    (90, 0, "(quantisation steps up to"),
+@pytest.mark.parametrize(("quality", "subsampling", "why", "form"), [
+    (90, 2, "4:2:0 chroma, quantisation steps up to", "JPEG"),
+    (100, 2, "4:2:0 chroma)", "JPEG"),
+    (90, 0, "(quantisation steps up to", "JPEG"),
+    (90, 2, "4:2:0 chroma, quantisation steps up to", "MPO"),  # (a phone's JPEG pair)
 ])
 def test_a_lossy_jpeg_is_detected_with_a_warning(snapshot, tmp_path, capsys, quality,
-                                                 subsampling, why):
+                                                 subsampling, why, form):
     # (its artefacts cost parts and materials: the compression study; the user is told)
     from PIL import Image
 
     path = tmp_path / "frame.jpg"
     with Image.open(snapshot / "rgb.png") as im:
-        im.convert("RGB").save(path, quality=quality, subsampling=subsampling)
+        rgb = im.convert("RGB")
+        rgb.save(path, format=form, quality=quality, subsampling=subsampling,
+                 **({"save_all": True, "append_images": [rgb]} if form == "MPO" else {}))
     assert main([str(path), "--camera", str(snapshot / "camera.json"), "--json"]) == 0
     captured = capsys.readouterr()
     out = json.loads(captured.out)

@@ -95,6 +95,7 @@ class SortLoop:
             t0 = time.perf_counter()
             self.world.step(n)
             self.timers["physics"] += time.perf_counter() - t0
+            self._watch_feeder()
             return
         dt = self.world.model.opt.timestep
         while n > 0:
@@ -102,9 +103,17 @@ class SortLoop:
             t0 = time.perf_counter()
             self.world.step(chunk)
             self.timers["physics"] += time.perf_counter() - t0
+            self._watch_feeder()
             n -= chunk
             if self.world.time >= self._next_state - dt / 2:
                 self._log_state()
+
+    def _watch_feeder(self) -> None:
+        """Note the belt's encoder when the feeder's counter reaches its last part, read
+        after every run of physics steps (a pick's included): the end of the job counts the
+        belt's run from then (:meth:`_all_through`)."""
+        if self._all_out_at is None and self.world.spawned == len(self.world.parts):
+            self._all_out_at = self.world.belt_encoder()
 
     def _log_state(self) -> None:
         """The replay's 3D state now; the next one ``_STATE_EVERY`` s on (on the grid)."""
@@ -313,9 +322,9 @@ class SortLoop:
 
     def _all_through(self, x: float) -> bool:
         """Whether the feeder has put out its last part (its counter) and the belt has run
-        far enough since (its encoder) to carry that part past ``x`` (m)."""
-        if self._all_out_at is None and self.world.spawned == len(self.world.parts):
-            self._all_out_at = self.world.belt_encoder()
+        far enough since (its encoder, read when the counter got there: :meth:`_watch_feeder`)
+        to carry that part past ``x`` (m)."""
+        self._watch_feeder()
         return (self._all_out_at is not None
                 and self.world.belt_encoder() - self._all_out_at > x - layout.SPAWN_X + 0.03)
 

@@ -148,6 +148,19 @@ def test_a_slow_belt_is_waited_for_and_an_early_end_is_said(calibration):
     assert "not_spawned" in text and "the job ended early: the belt has not moved" in text
 
 
+def test_the_job_ends_once_the_last_part_is_through_not_a_belt_run_later(calibration):
+    # the feeder's last part came out during a pick (the 7th at 0.78 m of belt, past the
+    # 0.73 m the first rides to the barrier), and the parts then queued at the barrier; the
+    # job counted the belt's run from its next wait for a part instead, after the last
+    # pick, and ran the belt 7.5 s longer
+    report = _run("sort", calibration, "parts.count=7", "parts.spacing=0.13")
+    _check_accounting(report, 7)
+    assert report["ended"] == "every part came through"
+    last = report["picks"][-1]
+    assert [p["result"] for p in report["picks"]] == ["placed"] * 7
+    assert report["metrics"]["sim_time_s"] - (last["t"] + last["cycle_time"]) < 1.0
+
+
 def test_index_mode_picks_only_while_the_belt_stands(calibration):
     # parts far apart: when a pick clears the barrier the belt runs on, and the next part
     # seen in the window is still moving; it must be picked only once the belt has stopped

@@ -6,7 +6,8 @@ them (see :mod:`cell.vision.detector`):
 3. :mod:`~cell.vision.steps.footprint` and :mod:`~cell.vision.steps.kind`: the outline on
    the table plane, and the catalogue kind it fits;
 4. :mod:`~cell.vision.steps.split`: touching parts cut apart;
-5. :mod:`~cell.vision.steps.material`: metal or plastic, from grain and albedo;
+5. :mod:`~cell.vision.steps.material` and :mod:`~cell.vision.steps.grain`: metal or
+   plastic, from the surface's grain and its albedo;
 6. :mod:`~cell.vision.steps.pose`: position and yaw on the table plane.
 
 Each step is plain numpy and OpenCV (the pose step also scipy); data passes between them

@@ -3,17 +3,9 @@
 Colour alone cannot tell grey or white plastic from steel or aluminium, nor yellow plastic
 from brass, so the classifier looks at two cues that do not depend on hue:
 
-* **Grain** (texture). A machined metal surface has a fine grain that modulates the
-  brightness of its own colour; sensor noise is independent in each channel. Projecting
-  each pixel's high-pass residual (pixel minus its 3x3 mean) onto the direction of the
-  part's mean colour gives grain + noise; its length across that direction gives noise
-  only (Rayleigh: median = 1.1774 sigma). The difference of the two variances estimates
-  the grain free of the sensor noise, with a standard error, so a dim, noisy frame does
-  not fake grain (after the colour-space noise model of Healey & Kondepudy, *Radiometric
-  CCD camera calibration and noise estimation*, 1994). Scales are robust (MAD, medians),
-  and only the pixels both flatter and brighter than the part's medians count (a third to
-  a half of them, the two being correlated): shading, a bolt's curved flank or the shadow terminator leave a
-  residual too, but show in the gradient of the smoothed grey.
+* **Grain** (texture): a machined metal surface has a fine grain that modulates the
+  brightness of its own colour, measured free of the sensor's noise, with a standard
+  error, by :mod:`cell.vision.steps.grain`.
 * **Albedo**. The part's mean colour divided by the belt's colour next to it, times the
   belt's known reflectance (a white balance against a reference surface of known colour),
   is compared with the catalogue's finishes (a softmax over squared distances); metals
@@ -50,7 +42,6 @@ ring is 4 px wide), against the belt's colour next to it (the mean of the free p
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -63,6 +54,13 @@ from cell.vision._checks import check_range
 from cell.vision.colour import unclipped_mean
 from cell.vision.settings import VisionSettings
 from cell.vision.steps.foreground import grey_step, noise_sigma
+from cell.vision.steps.grain import (
+    SUPPORT,
+    GrainCues,
+    InteriorStats,
+    grain_cues,
+    interior_statistics,
+)
 
 __all__ = ["MaterialFeatures", "MaterialLabel", "PartPixels", "classify_material",
            "material_features", "part_materials"]
@@ -79,8 +77,6 @@ class MaterialLabel(NamedTuple):
 _UNKNOWN = MaterialLabel("unknown", 0.0)
 _RING, _MIN_FREE = 6, 30  # belt window: the box grown by 6 px; fewer free pixels: not measured
 _MIN_PIXELS, _WIDE = 8, 150  # interior pixels needed at all; below _WIDE, erode 3x3 not 5x5
-_SUPPORT = 2  # px the filters (3x3 mean, then 3x3 Sobel) read around a pixel
-_HIGHPASS_GAIN = math.sqrt((8 / 9) ** 2 + 8 / 81)  # white noise through I - box3x3(I)
 _GRAIN_ODDS = 50.0  # the odds clear grain (or its clear absence) multiplies
 _SOFT_Z = 0.5  # standard errors below grain_z_min over which grain's weight rises
 _WEAK, _Z_PER_DEFICIT, _EVEN = 0.5, 2.0, 0.18  # weak grain: see _grain_evidence
@@ -104,9 +100,6 @@ def _chromaticity(rgb: np.ndarray) -> np.ndarray:
 
 
 _METAL_CHROMATICITY = _chromaticity(_FINISH_ALBEDO[_FINISH_METAL])
-# columns of a statistics row (_statistics) and of a grain row (_grain)
-_N, _KEPT, _MEAN, _NORM, _S_PAR, _S_NOISE2, _UNCLIPPED = 0, 1, 2, 5, 6, 7, 8
-_GRAIN_Z, _GRAIN_VISIBILITY = 1, 2
 
 
 @dataclass(frozen=True)
@@ -177,7 +170,7 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
         return [_UNKNOWN] * len(parts)
     grain = grain and step < _GRAINLESS_STEP  # a metal's grain is finer than 8 grey levels
     out = [_UNKNOWN] * len(parts)
-    rows, stats, belts, belt_means = [], [], [], []
+    rows, interiors, belts, belt_means = [], [], [], []
     frame_belt = None  # the median of the frame's free pixels, on first need
     for i, part in enumerate([] if backlit else parts):
         if (inner := _interior(image, part)) is None:
@@ -190,17 +183,18 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
             belt = frame_belt
         if belt.min() < settings.backlight_level:  # (else a light table: a silhouette)
             rows.append(i)
-            stats.append(_statistics(*inner))
+            interiors.append(interior_statistics(*inner))
             belts.append(belt)
             belt_means.append(belt is not frame_belt)
     if rows:
-        stats, belts, sigma = np.array(stats), np.array(belts), noise_sigma(image)
-        stats[:, _MEAN : _MEAN + 3] += (step - 1) / 2  # a sensor that truncates reads darker
+        belts, sigma = np.array(belts), noise_sigma(image)
+        means = np.array([r.mean_rgb for r in interiors])
+        means += (step - 1) / 2  # a sensor that truncates reads darker
         belts += (step - 1) / 2
-        labels = _frame_labels(stats, belts, np.array(belt_means), sigma, settings, grain)
+        seen = _Seen(interiors, means, belts, np.array(belt_means))
+        labels = _frame_labels(seen, sigma, settings, grain)
         if sigma > _CLIPPING:  # the decision must not hang on the noise estimate
-            alt = _frame_labels(stats, belts, np.array(belt_means), sigma * _SIGMA_LOW, settings,
-                                grain)
+            alt = _frame_labels(seen, sigma * _SIGMA_LOW, settings, grain)
             labels = [MaterialLabel(a.material, min(a.confidence, b.confidence))
                       if a.material == b.material else _UNKNOWN
                       for a, b in zip(labels, alt, strict=True)]
@@ -209,18 +203,28 @@ def part_materials(image: np.ndarray, foreground: np.ndarray, parts: list[PartPi
     return out
 
 
-def _frame_labels(stats: np.ndarray, belts: np.ndarray, belt_means: np.ndarray, sigma: float,
-                  settings: VisionSettings, grain: bool) -> list[MaterialLabel]:
-    """Labels of parts from their statistics rows (P, 9) and belt colours (P, 3), those
-    marked in ``belt_means`` being means (grey levels); the means, not the medians, are
-    taken back to before the sensor clipped a noise of ``sigma`` (:func:`unclipped_mean`)."""
-    belts, clip = belts.copy(), min(sigma, 255.0)  # (a crafted frame's estimate may read more)
-    belts[belt_means] = unclipped_mean(belts[belt_means], sigma=clip)
-    means = unclipped_mean(stats[:, _MEAN : _MEAN + 3], sigma=clip)
-    rows = _grain(stats, sigma)
-    if not grain:  # no evidence either way: no grain seen, nor any visible
-        rows[:, _GRAIN_Z] = rows[:, _GRAIN_VISIBILITY] = 0.0
-    return _labels(_albedo(means, belts, settings.belt_rgb), rows,
+@dataclass(frozen=True)
+class _Seen:
+    """What one frame shows of P parts: their ``interiors``, mean colours ``means`` (P, 3)
+    and the belt's colour next to each, ``belts`` (P, 3, grey levels; each a mean where
+    ``belt_means`` (P,) is True, else the frame's median)."""
+
+    interiors: list[InteriorStats]
+    means: np.ndarray
+    belts: np.ndarray
+    belt_means: np.ndarray
+
+
+def _frame_labels(seen: _Seen, sigma: float, settings: VisionSettings, grain: bool
+                  ) -> list[MaterialLabel]:
+    """Labels of the parts ``seen`` in a frame of sensor noise ``sigma`` (grey levels); the
+    means, not the medians, are taken back to before the sensor clipped that noise
+    (:func:`unclipped_mean`); ``grain`` False: the grain counts neither way."""
+    belts, clip = seen.belts.copy(), min(sigma, 255.0)  # (a crafted frame's estimate may read more)
+    belts[seen.belt_means] = unclipped_mean(belts[seen.belt_means], sigma=clip)
+    means = unclipped_mean(seen.means, sigma=clip)
+    cues = grain_cues(seen.interiors, sigma)
+    return _labels(_albedo(means, belts, settings.belt_rgb), cues if grain else cues.unseen(),
                    grain_metal=settings.grain_metal, grain_z_min=settings.grain_z_min,
                    albedo_sigma=settings.albedo_sigma)
 
@@ -260,13 +264,14 @@ def material_features(patch: np.ndarray, mask: np.ndarray, belt_rgb_seen: np.nda
         raise VisionError(f"material_features: argument 'belt_rgb' must be above 0 in every "
                           f"channel (a reflectance in (0, 1]), got {tuple(belt_rgb.tolist())}")
     noise_sigma = check_range("noise_sigma", noise_sigma, 0.0, 255.0)
-    row = _statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
-    grain, z, vis, _ = _grain(row[None], noise_sigma)[0].tolist()
-    mean = row[_MEAN : _MEAN + 3]
+    inner = interior_statistics(np.ascontiguousarray(patch), np.ascontiguousarray(mask).view(np.uint8))
+    cues = grain_cues([inner], noise_sigma)
+    mean = inner.mean_rgb
     albedo = _albedo(*(unclipped_mean(m, sigma=noise_sigma) for m in (mean, belt_rgb_seen)), belt_rgb)
-    return MaterialFeatures(mean_rgb=mean, albedo=albedo,
-                            grain=grain, grain_z=z, clipped=1.0 - row[_UNCLIPPED] / row[_N],
-                            pixels=int(row[_N]), grain_visibility=vis, grain_pixels=int(row[_KEPT]))
+    return MaterialFeatures(mean_rgb=mean, albedo=albedo, grain=float(cues.amplitude[0]),
+                            grain_z=float(cues.z[0]), clipped=1.0 - inner.unclipped / inner.pixels,
+                            pixels=inner.pixels, grain_visibility=float(cues.visibility[0]),
+                            grain_pixels=inner.grain_pixels)
 
 
 def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal: float,
@@ -303,8 +308,9 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
                           "(albedo three of them)")
     if backlit:
         return _UNKNOWN
-    grain = np.array([[f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1)]])
-    return _labels(np.asarray(f.albedo, np.float64)[None], grain, grain_metal=grain_metal,
+    cues = GrainCues(*(np.array([v], np.float64) for v in (
+        f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1))))
+    return _labels(np.asarray(f.albedo, np.float64)[None], cues, grain_metal=grain_metal,
                    grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
 
 
@@ -323,7 +329,7 @@ def _three(name: str, value: object, lo: float, hi: float) -> np.ndarray:
 def _interior(image: np.ndarray, part: PartPixels) -> tuple[np.ndarray, np.ndarray] | None:
     """(patch, mask) of the part's interior: its mask eroded (``cv2.erode``, whose default
     border does not eat into the mask's box), cropped to the interior's bounding box and
-    ``_SUPPORT`` px around it (within the mask's box), and the frame's pixels there; None
+    ``SUPPORT`` px around it (within the mask's box), and the frame's pixels there; None
     under 8 pixels."""
     if not isinstance(part, PartPixels) or not isinstance(part.mask, np.ndarray) or part.mask.ndim != 2:
         raise VisionError(f"part_materials: argument 'parts' must hold PartPixels with a 2-D "
@@ -339,8 +345,8 @@ def _interior(image: np.ndarray, part: PartPixels) -> tuple[np.ndarray, np.ndarr
         if cv2.countNonZero(inner) < _MIN_PIXELS:
             return None
     bx, by, bw, bh = cv2.boundingRect(inner)
-    xa, ya = max(bx - _SUPPORT, 0), max(by - _SUPPORT, 0)
-    xb, yb = min(bx + bw + _SUPPORT, w), min(by + bh + _SUPPORT, h)
+    xa, ya = max(bx - SUPPORT, 0), max(by - SUPPORT, 0)
+    xb, yb = min(bx + bw + SUPPORT, w), min(by + bh + SUPPORT, h)
     return image[y0 + ya : y0 + yb, x0 + xa : x0 + xb], inner[ya:yb, xa:xb]
 
 
@@ -353,58 +359,6 @@ def _belt_colour(image: np.ndarray, foreground: np.ndarray, part: PartPixels) ->
     free = (foreground[win] != 255).view(np.uint8)
     n = cv2.countNonZero(free)
     return n, np.array(cv2.mean(image[win], free)[:3])
-
-
-def _statistics(patch: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """The statistics row of the pixels ``mask`` (nonzero) of the uint8 RGB ``patch``,
-    mirrored at its border (``cv2.BORDER_REFLECT_101``): pixels, pixels kept for the grain,
-    mean RGB, its length, 1.4826 * the MAD of the residual along the mean colour, the median
-    squared length of the residual across it, unclipped pixels (no channel above 253).
-
-    Grey is ``cv2.COLOR_RGB2GRAY`` smoothed by a 3x3 mean (``cv2.blur``); a pixel is kept
-    where its Sobel (``cv2.spatialGradient``) squared length is at most the part's median
-    and its smoothed grey at least the median. The residual is the pixel minus its 3x3
-    mean colour, in float32; medians are upper ones (element n // 2 in order)."""
-    p = _SUPPORT
-    pad = cv2.copyMakeBorder(patch, p, p, p, p, cv2.BORDER_REFLECT_101)
-    at = np.flatnonzero(cv2.copyMakeBorder(mask, p, p, p, p, cv2.BORDER_CONSTANT))
-    n = len(at)
-    pix = pad.reshape(-1, 3)[at]
-    means = np.array(cv2.mean(patch, mask)[:3])  # (integer sums times 1 / n)
-    grey = cv2.blur(cv2.cvtColor(pad, cv2.COLOR_RGB2GRAY), (3, 3))
-    gx, gy = (g.reshape(-1)[at].astype(np.int32) for g in cv2.spatialGradient(grey))
-    slope, lit = gx * gx + gy * gy, grey.reshape(-1)[at]
-    flat = (slope <= _upper_median(slope)) & (lit >= _upper_median(lit))
-    local = cv2.blur(pad, (3, 3)).reshape(-1, 3)[at[flat]]
-    resid = cv2.subtract(pix[flat], local, dtype=cv2.CV_32F).reshape(-1, 1, 3)
-    norm = float(np.sqrt(means @ means))
-    unit = (means / norm if norm > 1e-6 else np.full(3, 1 / np.sqrt(3))).astype(np.float32)
-    par = cv2.transform(resid, unit[None]).reshape(-1)
-    orth2 = cv2.transform(resid * resid, np.ones((1, 3), np.float32)).reshape(-1) - par * par
-    mad = _upper_median(np.abs(par - _upper_median(par)))
-    unclipped = cv2.countNonZero(cv2.inRange(pix.reshape(-1, 1, 3), (0, 0, 0), (253, 253, 253)))
-    return np.array([n, len(par), *means, norm, 1.4826 * float(mad), _upper_median(orth2),
-                     unclipped], np.float64)
-
-
-def _upper_median(v: np.ndarray):
-    """Element ``len(v) // 2`` of ``v`` in order."""
-    return np.partition(v, len(v) // 2)[len(v) // 2]
-
-
-def _grain(stats: np.ndarray, sigma: float) -> np.ndarray:
-    """(grain, grain_z, grain_visibility, grain_pixels / pixels) (P, 4) of statistics rows
-    (P, 9): the grain variance is that along the colour less the noise's (its scale across
-    the colour, a Rayleigh median over 1.1774, floored at the frame's ``sigma`` through the
-    high-pass), with its standard error."""
-    norm, s_par, kept = stats[:, _NORM], stats[:, _S_PAR], stats[:, _KEPT]
-    s_noise = np.maximum(np.sqrt(np.maximum(stats[:, _S_NOISE2], 0.0)) / 1.1774,
-                         sigma * _HIGHPASS_GAIN)
-    grain_var = s_par**2 - s_noise**2
-    se = np.sqrt(2.0 / (0.37 * np.maximum(kept, 1.0))) * (s_par**2 + s_noise**2) + 1e-9
-    grain = np.sqrt(np.maximum(grain_var, 0.0)) / np.maximum(norm / math.sqrt(3), 1.0)
-    return np.stack([grain, grain_var / se, (0.05 * norm / math.sqrt(3)) ** 2 / se,
-                     kept / stats[:, _N]], axis=1)
 
 
 def _albedo(means: np.ndarray, belt_seen: np.ndarray, belt_rgb: tuple[float, ...]) -> np.ndarray:
@@ -427,9 +381,9 @@ def _grain_evidence(grain: np.ndarray, z: np.ndarray, even: np.ndarray, *, grain
     return np.where(weak, 0.0, np.clip((z - need) / _SOFT_Z + 1.0, 0.0, 1.0))
 
 
-def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_z_min: float,
+def _labels(albedo: np.ndarray, grain: GrainCues, *, grain_metal: float, grain_z_min: float,
             albedo_sigma: float) -> list[MaterialLabel]:
-    """Labels of parts from their albedos (P, 3) and grain rows (P, 4, as :func:`_grain`):
+    """Labels of parts from their albedos (P, 3) and grain cues (:func:`grain_cues`):
     the albedo's softmax prior over the catalogue finishes, held within 0.05..0.95 (0.01..0.95
     for a colour no metal has), its odds multiplied by the grain's evidence (see
     :func:`classify_material`)."""
@@ -438,7 +392,7 @@ def _labels(albedo: np.ndarray, grain: np.ndarray, *, grain_metal: float, grain_
     hue_off = np.linalg.norm(_chromaticity(albedo)[:, None] - _METAL_CHROMATICITY, axis=2).min(axis=1)
     floor = np.where(hue_off > _OFF_HUE, _OFF_HUE_FLOOR, _PRIOR_FLOOR)
     prior = np.clip(w[:, _FINISH_METAL].sum(axis=1) / w.sum(axis=1), floor, 1 - _PRIOR_FLOOR)
-    g, z, vis, even = grain.T
+    g, z, vis, even = grain.amplitude, grain.z, grain.visibility, grain.even
     lit = albedo.mean(axis=1) >= 0.25
     evidence = np.where(lit, _grain_evidence(g, z, even, grain_metal=grain_metal,
                                              grain_z_min=grain_z_min), 0.0)

@@ -37,7 +37,7 @@ from cell.vision.steps.footprint import TablePlane
 from cell.vision.steps.foreground import Foreground, find_foreground
 from cell.vision.steps.kind import KindFit, fit_kind, holds_another
 from cell.vision.steps.material import MaterialLabel, part_materials
-from cell.vision.steps.outlines import Outline, find_outlines
+from cell.vision.steps.outlines import Outline, find_outlines, is_faint
 from cell.vision.steps.pose import part_pose
 from cell.vision.steps.split import Piece, split_blob
 
@@ -152,11 +152,12 @@ class PartDetector:
             return self._at_border(blob, fit, fg, plane)
         if fit.kind != "unknown" and fit.score < _WELL and not holds_another(fit):
             return [Piece(blob, fit)]
-        if fit.kind == "unknown" and _faint(blob, fg, st.faint_contrast):
+        if fit.kind == "unknown" and is_faint(blob.pixels, fg, st.faint_contrast):
             return []  # belt texture or noise at the threshold: no parts to search for
         if st.split_touching:
-            pieces = split_blob(blob, fit, image=fg.image, plane=plane,
-                                min_confidence=st.min_kind_confidence)
+            pieces = split_blob(blob, fit, foreground=fg, plane=plane,
+                                min_confidence=st.min_kind_confidence,
+                                faint_contrast=st.faint_contrast)
             if pieces:
                 return pieces
         fp = fit.footprint
@@ -174,8 +175,9 @@ class PartDetector:
         st = self.settings
         pieces = []
         if st.split_touching:
-            pieces = split_blob(blob, fit, image=fg.image, plane=plane,
-                                min_confidence=st.min_kind_confidence)
+            pieces = split_blob(blob, fit, foreground=fg, plane=plane,
+                                min_confidence=st.min_kind_confidence,
+                                faint_contrast=st.faint_contrast)
         if not pieces:
             return _partial(blob, fit, plane, st)
         return [q for p in pieces
@@ -203,18 +205,6 @@ def _check_frame(image: np.ndarray, camera: CameraModel) -> None:
                           f"image is {w}x{h}")
     if h < 16 or w < 16:
         raise VisionError(f"argument 'image': too small ({w}x{h}), need at least 16x16")
-
-
-def _faint(blob: Outline, fg: Foreground, contrast: float) -> bool:
-    """Whether the brightest tenth of a blob stands less than ``contrast`` thresholds
-    from the belt (0: never)."""
-    px = blob.pixels
-    h, w = px.mask.shape
-    diff = fg.difference[px.y0:px.y0 + h, px.x0:px.x0 + w][px.mask > 0]
-    if contrast <= 0 or diff.size == 0:
-        return False
-    k = int(0.9 * (diff.size - 1))  # the brightest tenth's lower edge
-    return float(np.partition(diff, k)[k]) < contrast * fg.threshold
 
 
 def _partial(blob: Outline, fit: KindFit, plane: TablePlane, st: VisionSettings

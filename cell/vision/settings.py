@@ -112,7 +112,9 @@ class VisionSettings:
         1.85, lo=0.0, hi=20.0,
         doc="a blob that fits no kind is searched for touching parts only if the brightest "
         "tenth of it differs from the belt by at least this many times the foreground "
-        "threshold: fainter ones are belt texture or noise (0 = search all)",
+        "threshold: fainter ones are belt texture or noise; a piece of a cut that fits no "
+        "kind and is this faint is left out of the cut when no cut fits every piece "
+        "(0 = search all, leave none out)",
     )
     partial_min_width: float = setting(
         0.010, lo=0.0, hi=1.0,

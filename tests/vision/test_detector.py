@@ -406,3 +406,21 @@ def test_heavy_sensor_noise_reads_no_part_as_the_wrong_material(world_factory, s
                 said.append((part.finish, d.material))
     assert all(m in (MATERIALS[f].material, "unknown") for f, m in said), said
     assert len(said) >= 6 and sum(m != "unknown" for _, m in said) >= 4
+
+
+def test_a_part_touching_the_fragments_of_a_faint_one_is_found():
+    """Under dim light a grey part at the noise level comes out in fragments that fit no
+    kind; a bright disc touching them was lost with them (no cut gave two pieces that
+    fit). Now the faint piece is left out and the disc reported where it lies."""
+    import cv2
+
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    faint = tuple(int(c) + 12 for c in drawn.BELT)
+    cv2.ellipse(img, drawn.mm(-20, 0), (drawn.px(14), drawn.px(9)), 0, 0, 360, faint, -1)
+    cv2.circle(img, drawn.mm(8, 0), drawn.px(15), (200, 200, 195), -1)
+    dets = PartDetector().detect(img, drawn.camera())
+    assert [d.kind for d in dets] == ["disc"]
+    assert dets[0].position[0] * 1e3 == pytest.approx(8, abs=1.0)
+    assert dets[0].position[1] == pytest.approx(drawn.BELT_Y, abs=1e-3)

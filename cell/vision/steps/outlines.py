@@ -28,7 +28,7 @@ from cell.vision.settings import VisionSettings
 from cell.vision.steps.foreground import Foreground
 from cell.vision.steps.material import PartPixels
 
-__all__ = ["Outline", "Ring", "find_outlines", "outline_of_mask", "shadow"]
+__all__ = ["Outline", "Ring", "find_outlines", "is_faint", "outline_of_mask", "shadow"]
 
 _SQUARE = np.ones((3, 3), np.uint8)
 _NEAR = np.ones((5, 5), np.uint8)  # a blob's surroundings: its pixels dilated by 2 px
@@ -105,6 +105,19 @@ def outline_of_mask(mask: np.ndarray, x0: int, y0: int, *, frame: tuple[int, int
                            partial, PartPixels(bx, by, np.ascontiguousarray(sub)), m["m00"],
                            (m["m10"] / m["m00"] + x0, m["m01"] / m["m00"] + y0)))
     return out
+
+
+def is_faint(pixels: PartPixels, fg: Foreground, contrast: float) -> bool:
+    """Whether the brightest tenth of a region's ``pixels`` stands less than ``contrast``
+    times ``fg.threshold`` from the belt (``fg.difference``; ``contrast`` 0: never):
+    belt texture, noise at the threshold, or a part at the noise level (a grey part
+    under dim light, in fragments), whose outline says nothing of its shape."""
+    h, w = pixels.mask.shape
+    diff = fg.difference[pixels.y0:pixels.y0 + h, pixels.x0:pixels.x0 + w][pixels.mask > 0]
+    if contrast <= 0 or diff.size == 0:
+        return False
+    k = int(0.9 * (diff.size - 1))  # the brightest tenth's lower edge
+    return float(np.partition(diff, k)[k]) < contrast * fg.threshold
 
 
 def _children(hierarchy: np.ndarray, i: int) -> list[int]:

@@ -21,14 +21,20 @@ cut scored under 9):
    regions after a 3x3 opening, those at least a quarter of its largest, seed a piece
    (a streak of light can break a part's face in two). Tried last, on the blob itself.
 
-A piece that fits no kind and is large enough to hold two parts is cut once more (one
-cut can so give four pieces); the search tries at most 40 cuts per blob. A piece of the
-best cut that fits its kind but holds another part's area (a nut nested in an L
-bracket's inner corner) gets up to 4 cuts of its own, and a region of the blob that
-no piece covers (a part touching the others at one corner only falls away at the cut) is
-a piece when it fits a kind. The detector sends a blob here also when it fits a kind
-poorly (a score of 9 or more: then only a cut that fits clearly better is taken) or holds
-another part's area (:func:`~cell.vision.steps.kind.holds_another`).
+A piece that fits no kind and is large enough to hold two parts is cut once more (one cut
+can so give four pieces); one that fits no kind and is faint (its brightest tenth under
+``vision.faint_contrast`` thresholds from the belt,
+:func:`~cell.vision.steps.outlines.is_faint`: a grey part at the noise level under dim
+light, in fragments) is left out, not reported, and counts in the cut's mean as a piece
+scoring the limit 9; such a cut is taken only when no cut whose every piece fits scores
+under 9 (else a bright part touching such fragments was lost with them). The search
+tries at most 40 cuts per blob. A piece of the best cut that fits its kind but holds
+another part's area (a nut nested in an L bracket's inner corner) gets up to 4 cuts of
+its own, and a region of the blob that no piece covers (a part touching the others at one
+corner only falls away at the cut) is a piece when it fits a kind. The detector sends a
+blob here also when it fits a kind poorly (a score of 9 or more: then only a cut that
+fits clearly better is taken) or holds another part's area
+(:func:`~cell.vision.steps.kind.holds_another`).
 """
 
 from __future__ import annotations
@@ -41,11 +47,13 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from cell.errors import VisionError
 from cell.vision._checks import check_colour
 from cell.vision.steps.footprint import TablePlane
+from cell.vision.steps.foreground import Foreground
 from cell.vision.steps.kind import KindFit, fit_kind, holds_another
 from cell.vision.steps.material import PartPixels
-from cell.vision.steps.outlines import Outline, outline_of_mask
+from cell.vision.steps.outlines import Outline, is_faint, outline_of_mask
 
 __all__ = ["Piece", "split_blob"]
 
@@ -78,26 +86,35 @@ class Piece:
 @dataclass
 class _Search:
     plane: TablePlane
-    image: np.ndarray
-    frame: tuple[int, int]
+    foreground: Foreground
     min_confidence: float
+    faint_contrast: float
     budget: int = _BUDGET
 
+    @property
+    def frame(self) -> tuple[int, int]:
+        """(width, height) of the frame (px)."""
+        return self.foreground.mask.shape[1], self.foreground.mask.shape[0]
 
-def split_blob(blob: Outline, whole: KindFit, *, image: np.ndarray, plane: TablePlane,
-               min_confidence: float = 0.5) -> list[Piece]:
+
+def split_blob(blob: Outline, whole: KindFit, *, foreground: Foreground, plane: TablePlane,
+               min_confidence: float = 0.5, faint_contrast: float = 0.0) -> list[Piece]:
     """The pieces of a blob of touching parts, or [] when no cut gives pieces that fit
-    (see the module docstring). ``whole`` is the blob's own fit; ``image`` the uint8 RGB
-    frame (H, W, 3, for the colour cut); ``min_confidence`` as
-    :func:`~cell.vision.steps.kind.fit_kind`'s."""
-    check_colour("image", image)
+    (see the module docstring). ``whole`` is the blob's own fit; ``foreground`` the
+    frame's :class:`~cell.vision.steps.foreground.Foreground` (its ``image``, uint8 RGB,
+    for the colour cut; its ``difference`` and ``threshold`` tell a faint piece);
+    ``min_confidence`` as :func:`~cell.vision.steps.kind.fit_kind`'s; ``faint_contrast``
+    as ``vision.faint_contrast`` (0: no piece is faint)."""
+    if not isinstance(foreground, Foreground):
+        raise VisionError(f"split_blob: argument 'foreground' must be a Foreground, got "
+                          f"{type(foreground).__name__}")
+    check_colour("image", foreground.image)
     if plane.area_mm2(blob) <= _MIN_PAIR_MM2 or whole.footprint.width < _MIN_WIDTH:
         return []  # too small for two parts, or narrower than any part: a strip
     limit = _ACCEPT
     if whole.kind != "unknown":  # it fits a kind, poorly: a clearly better cut wins
         limit = max(_ACCEPT, min(whole.score - _BETTER, _POOR))
-    h, w = image.shape[:2]
-    search = _Search(plane, image, (w, h), min_confidence)
+    search = _Search(plane, foreground, min_confidence, faint_contrast)
     cost, pieces = _best_cut(blob.pixels, search, depth=0)
     if cost >= limit:
         return []
@@ -128,8 +145,11 @@ def _left_out(pixels: PartPixels, pieces: list[Piece], search: _Search) -> list[
 
 
 def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float, list[Piece]]:
-    """(mean score, pieces) of the best cut of a blob's pixels, (inf, []) if none."""
-    best: tuple[float, list[Piece]] = (math.inf, [])
+    """(mean score, pieces) of the best cut of a blob's pixels, (inf, []) if none. A cut
+    that leaves a faint piece out is taken only when no cut whose every piece fits scores
+    under the limit 9; such cuts neither end the search nor skip the cuts after them."""
+    best: tuple[float, list[Piece]] = (math.inf, [])  # every piece fits
+    fallback: tuple[float, list[Piece]] = (math.inf, [])  # faint pieces left out
     for kind_of_cut, candidate in _candidates(pixels, search, depth):
         if search.budget <= 0:
             break
@@ -138,41 +158,48 @@ def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float
         if kind_of_cut == "colour" and best[0] < _ACCEPT:
             break
         search.budget -= 1
-        pieces = _evaluate(candidate, pixels, search, depth)
+        pieces, faint = _evaluate(candidate, pixels, search, depth)
         scores = [p.fit.score for p in pieces if not p.blob.partial]
-        if scores:  # (a piece at the image border has no kind to fit)
-            cost = sum(scores) / len(scores)
-            if cost < best[0]:
-                best = (cost, pieces)
+        if not scores:  # (a piece at the image border has no kind to fit)
+            continue
+        cost = (sum(scores) + faint * _ACCEPT) / (len(scores) + faint)
+        if faint:
+            fallback = (cost, pieces) if cost < fallback[0] else fallback
+        elif cost < best[0]:
+            best = (cost, pieces)
             if cost < _GOOD:
                 break
-    return best
+    return best if best[0] < _ACCEPT or fallback[0] >= best[0] else fallback
 
 
 def _evaluate(candidate: list[tuple[np.ndarray, tuple | None]], pixels: PartPixels,
-              search: _Search, depth: int) -> list[Piece]:
+              search: _Search, depth: int) -> tuple[list[Piece], int]:
     """The pieces of one cut, each fitted (and cut again when it fits no kind and may
-    hold two parts); [] when a piece fits no kind."""
-    out = []
+    hold two parts), and how many faint pieces that fit no kind it left out; ([], 0) when
+    a piece that is not faint fits no kind, or when every piece is left out."""
+    out, faint = [], 0
     for mask, segment in candidate:
         found = outline_of_mask(mask, pixels.x0, pixels.y0, frame=search.frame)
         if not found:
-            return []
+            return [], 0
         blob = max(found, key=lambda b: b.area)
         fit = fit_kind(blob, search.plane, min_confidence=search.min_confidence)
         if blob.partial:  # cut by the image border: a part, of no kind
             out.append(Piece(blob, fit))
             continue
         if fit.kind == "unknown" or fit.score >= _ACCEPT:
+            if is_faint(blob.pixels, search.foreground, search.faint_contrast):
+                faint += 1  # fragments of a part at the noise level: no shape to fit
+                continue
             if depth >= _MAX_DEPTH or search.plane.area_mm2(blob) <= _MIN_PAIR_MM2:
-                return []
+                return [], 0
             cost, sub = _best_cut(blob.pixels, search, depth=depth + 1)
             if cost >= _ACCEPT:
-                return []
+                return [], 0
             out += [_mark_cut(q, segment, (pixels.x0, pixels.y0)) for q in sub]  # this cut too
             continue
         out.append(_mark_cut(Piece(blob, fit), segment, (pixels.x0, pixels.y0)))
-    return out
+    return (out, faint) if out else ([], 0)
 
 
 def _nested(piece: Piece, search: _Search) -> list[Piece]:
@@ -202,7 +229,7 @@ def _candidates(pixels: PartPixels, search: _Search, depth: int
         if n > 2:
             yield "cores", _nearest(mask, labels)
     if depth == 0:
-        seeds = _colour_seeds(pixels, search.image)
+        seeds = _colour_seeds(pixels, search.foreground.image)
         if seeds is not None:
             yield "colour", _nearest(mask, seeds)
 

@@ -106,3 +106,26 @@ def test_a_region_within_margin_of_the_bottom_or_right_border_is_partial():
     assert partial(53, 20, 10, 10)  # columns 53..62
     assert not partial(20, 36, 10, 10)  # rows 36..45
     assert not partial(52, 20, 10, 10)  # columns 52..61
+
+
+def test_is_faint_reads_the_brightest_tenth_against_the_threshold():
+    """A region is faint when its brightest tenth stands under ``contrast`` thresholds
+    from the belt: a smudge 12 grey levels over it is (threshold 8: 1.5 of it), a light
+    grey part is not; a contrast of 0 calls nothing faint."""
+    import cv2
+
+    from cell.vision.settings import VisionSettings
+    from cell.vision.steps.foreground import find_foreground
+    from cell.vision.steps.outlines import find_outlines, is_faint
+    from tests.vision.steps import drawn
+
+    img = drawn.frame()
+    cv2.circle(img, drawn.mm(-60, 0), drawn.px(15), tuple(int(c) + 12 for c in drawn.BELT), -1)
+    cv2.circle(img, drawn.mm(60, 0), drawn.px(15), (200, 200, 195), -1)
+    fg = find_foreground(img, VisionSettings())
+    assert fg.threshold == 8.0
+    dim, bright = sorted(find_outlines(fg, VisionSettings(), min_px=50, max_px=180),
+                         key=lambda b: b.centroid[0])
+    assert is_faint(dim.pixels, fg, 1.85) and not is_faint(bright.pixels, fg, 1.85)
+    assert not is_faint(dim.pixels, fg, 1.4)  # it stands 1.5 thresholds out
+    assert not is_faint(dim.pixels, fg, 0.0)

@@ -15,14 +15,15 @@ from cell.vision.steps.split import split_blob
 from tests.vision.steps import drawn
 
 
-def _pieces(draw):
+def _pieces(draw, *, faint_contrast: float = 0.0):
     img = drawn.frame()
     draw(img)
     fg = find_foreground(img, VisionSettings())
     (blob,) = find_outlines(fg, VisionSettings(), min_px=50, max_px=180)
     plane = TablePlane(drawn.camera(), 0.08)
     whole = fit_kind(blob, plane)
-    return whole, split_blob(blob, whole, image=fg.image, plane=plane), plane
+    pieces = split_blob(blob, whole, foreground=fg, plane=plane, faint_contrast=faint_contrast)
+    return whole, pieces, plane
 
 
 def test_two_touching_discs_come_out_as_two_discs_where_they_lie():
@@ -161,3 +162,55 @@ def test_each_straight_cut_is_tried_once():
     cv2.fillPoly(mask, [np.array([[30, 30], [50, 30], [40, 23]], np.int32)], 0)
     cuts = [sorted((tuple(a), tuple(b))) for a, b in _notch_cuts(mask)]
     assert cuts == [[(40.0, 18.0), (40.0, 22.0)]]
+
+
+def _disc_touching_a_smudge(img, *, lift: int = 12):
+    """A bright 30 mm disc touching a faint smudge (28 x 18 mm, ``lift`` grey levels over
+    the belt in every channel: a grey part at the noise level under dim light)."""
+    faint = tuple(int(c) + lift for c in drawn.BELT)
+    cv2.ellipse(img, drawn.mm(-20, 0), (drawn.px(14), drawn.px(9)), 0, 0, 360, faint, -1)
+    cv2.circle(img, drawn.mm(8, 0), drawn.px(15), (200, 200, 195), -1)
+
+
+def test_a_part_touching_faint_fragments_is_cut_off_them_and_they_are_left_out():
+    """The smudge fits no kind, so no cut has two pieces that fit: a faint piece is left
+    out (it stands 1.5 thresholds from the belt, under vision.faint_contrast's 1.85)."""
+    whole, pieces, _ = _pieces(_disc_touching_a_smudge, faint_contrast=1.85)
+    assert whole.kind == "unknown"
+    assert [p.fit.kind for p in pieces] == ["disc"]
+    assert pieces[0].fit.footprint.centroid[0] * 1e3 == pytest.approx(8, abs=1.0)
+    _, unchanged, _ = _pieces(_disc_touching_a_smudge, faint_contrast=0.0)  # 0: none faint
+    assert unchanged == []
+
+
+def test_a_bright_piece_that_fits_no_kind_still_fails_the_cut():
+    """The same smudge drawn 30 grey levels over the belt (3.75 thresholds) is no fragment
+    of a faint part: a cut that leaves a piece fitting no kind is not taken."""
+    whole, pieces, _ = _pieces(lambda img: _disc_touching_a_smudge(img, lift=30),
+                               faint_contrast=1.85)
+    assert whole.kind == "unknown" and whole.footprint.length > 0.05  # the disc and the smudge
+    assert pieces == []
+
+
+def test_a_cut_whose_pieces_all_fit_wins_over_one_that_leaves_a_faint_piece_out():
+    """Two touching discs, one of them faint: both are reported, the faint one too (its
+    outline is whole here), rather than the bright one alone."""
+    def two(img):
+        faint = tuple(int(c) + 12 for c in drawn.BELT)
+        cv2.circle(img, drawn.mm(-15, 0), drawn.px(15), faint, -1)
+        cv2.circle(img, drawn.mm(15, 0), drawn.px(15), (200, 200, 195), -1)
+    _, pieces, _ = _pieces(two, faint_contrast=1.85)
+    xs = sorted(round(p.fit.footprint.centroid[0] * 1e3) for p in pieces)
+    assert [p.fit.kind for p in pieces] == ["disc", "disc"] and xs == pytest.approx([-15, 15], abs=1)
+
+
+def test_split_blob_names_a_wrong_foreground():
+    from cell.errors import VisionError
+
+    img = drawn.frame()
+    cv2.circle(img, drawn.mm(0, 0), drawn.px(15), (200, 200, 195), -1)
+    fg = find_foreground(img, VisionSettings())
+    (blob,) = find_outlines(fg, VisionSettings(), min_px=50, max_px=180)
+    plane = TablePlane(drawn.camera(), 0.08)
+    with pytest.raises(VisionError, match="foreground"):
+        split_blob(blob, fit_kind(blob, plane), foreground=img, plane=plane)

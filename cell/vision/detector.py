@@ -48,7 +48,7 @@ _LONGEST_GROUP = 4 * _LONGEST  # m: a longer blob holds a rail (four discs in a 
 _WELL = 9.0  # a blob whose kind scores under this is one part: no cut is tried
 _NEAR_A_KIND = 18.0  # a blob scoring worse than this for every kind is no part
 _EDGE = 0.004  # m: a part's centre lies this far inside the belt's edges (half the narrowest is 5.5 mm)
-_NARROWEST = 0.0095  # m: narrower and of no kind: a strip, no part (the narrowest part is 11 mm)
+_NARROWEST = 0.0095  # m: a blob narrower than this is a strip, no part (the narrowest is 11 mm)
 
 
 @dataclass(frozen=True)
@@ -161,9 +161,8 @@ class PartDetector:
             if pieces:
                 return pieces
         fp = fit.footprint
-        strip = fp.width < _NARROWEST and fit.kind == "unknown"  # (a bolt whose head's edge is lost fits)
         if (fit.score > _NEAR_A_KIND or plane.area_mm2(blob) > st.max_area_mm2
-                or fp.length > 1.3 * _LONGEST or strip):
+                or fp.length > 1.3 * _LONGEST or fp.width < _NARROWEST):
             return []  # like no kind at all, larger than two parts, or a strip: no part
         return [Piece(blob, fit)]  # one part (``unknown`` when it fits its kind too poorly)
 

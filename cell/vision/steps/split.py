@@ -48,7 +48,7 @@ import cv2
 import numpy as np
 
 from cell.errors import VisionError
-from cell.vision._checks import check_colour
+from cell.vision._checks import check_colour, check_range
 from cell.vision.steps.footprint import TablePlane
 from cell.vision.steps.foreground import Foreground
 from cell.vision.steps.kind import KindFit, fit_kind, holds_another
@@ -109,6 +109,7 @@ def split_blob(blob: Outline, whole: KindFit, *, foreground: Foreground, plane: 
         raise VisionError(f"split_blob: argument 'foreground' must be a Foreground, got "
                           f"{type(foreground).__name__}")
     check_colour("image", foreground.image)
+    faint_contrast = check_range("faint_contrast", faint_contrast, 0.0, 20.0)
     if plane.area_mm2(blob) <= _MIN_PAIR_MM2 or whole.footprint.width < _MIN_WIDTH:
         return []  # too small for two parts, or narrower than any part: a strip
     limit = _ACCEPT

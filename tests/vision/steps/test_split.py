@@ -204,7 +204,7 @@ def test_a_cut_whose_pieces_all_fit_wins_over_one_that_leaves_a_faint_piece_out(
     assert [p.fit.kind for p in pieces] == ["disc", "disc"] and xs == pytest.approx([-15, 15], abs=1)
 
 
-def test_split_blob_names_a_wrong_foreground():
+def test_split_blob_names_a_wrong_foreground_or_faint_contrast():
     from cell.errors import VisionError
 
     img = drawn.frame()
@@ -214,3 +214,6 @@ def test_split_blob_names_a_wrong_foreground():
     plane = TablePlane(drawn.camera(), 0.08)
     with pytest.raises(VisionError, match="foreground"):
         split_blob(blob, fit_kind(blob, plane), foreground=img, plane=plane)
+    for bad in (float("nan"), -1.0, 21.0, "2"):
+        with pytest.raises(VisionError, match="faint_contrast"):
+            split_blob(blob, fit_kind(blob, plane), foreground=fg, plane=plane, faint_contrast=bad)

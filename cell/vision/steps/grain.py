@@ -101,17 +101,19 @@ def interior_statistics(patch: np.ndarray, mask: np.ndarray) -> InteriorStats:
 
 
 def _upper_median(v: np.ndarray):
-    """Element ``len(v) // 2`` of ``v`` in order."""
-    return np.partition(v, len(v) // 2)[len(v) // 2]
+    """Element ``len(v) // 2`` of ``v`` in order (of two middle ones, the upper)."""
+    return np.quantile(v, 0.5, method="higher")
 
 
 def grain_cues(interiors: list[InteriorStats], sigma: float) -> GrainCues:
     """The :class:`GrainCues` of parts' interiors: the grain variance is that along the colour
     less the noise's (its scale across the colour, a Rayleigh median over 1.1774, floored
     at the frame's ``sigma`` through the high-pass), with its standard error."""
-    norm, s_par, kept, pixels, across2 = (
-        np.array([getattr(r, k) for r in interiors], np.float64)
-        for k in ("brightness", "along", "grain_pixels", "pixels", "across2"))
+    norm = np.array([r.brightness for r in interiors])
+    s_par = np.array([r.along for r in interiors])
+    kept = np.array([r.grain_pixels for r in interiors], np.float64)
+    pixels = np.array([r.pixels for r in interiors], np.float64)
+    across2 = np.array([r.across2 for r in interiors])
     s_noise = np.maximum(np.sqrt(np.maximum(across2, 0.0)) / 1.1774, sigma * _HIGHPASS_GAIN)
     grain_var = s_par**2 - s_noise**2
     se = np.sqrt(2.0 / (0.37 * np.maximum(kept, 1.0))) * (s_par**2 + s_noise**2) + 1e-9

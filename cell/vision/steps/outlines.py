@@ -116,8 +116,8 @@ def is_faint(pixels: PartPixels, fg: Foreground, contrast: float) -> bool:
     diff = fg.difference[pixels.y0:pixels.y0 + h, pixels.x0:pixels.x0 + w][pixels.mask > 0]
     if contrast <= 0 or diff.size == 0:
         return False
-    k = int(0.9 * (diff.size - 1))  # the brightest tenth's lower edge
-    return float(np.partition(diff, k)[k]) < contrast * fg.threshold
+    brightest_tenth = float(np.quantile(diff, 0.9, method="lower"))  # its lower edge
+    return brightest_tenth < contrast * fg.threshold
 
 
 def _children(hierarchy: np.ndarray, i: int) -> list[int]:

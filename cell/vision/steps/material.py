@@ -308,8 +308,10 @@ def classify_material(features: MaterialFeatures, *, backlit: bool, grain_metal:
                           "(albedo three of them)")
     if backlit:
         return _UNKNOWN
-    cues = GrainCues(*(np.array([v], np.float64) for v in (
-        f.grain, f.grain_z, f.grain_visibility, f.grain_pixels / max(f.pixels, 1))))
+    cues = GrainCues(amplitude=np.array([f.grain], np.float64),
+                     z=np.array([f.grain_z], np.float64),
+                     visibility=np.array([f.grain_visibility], np.float64),
+                     even=np.array([f.grain_pixels / max(f.pixels, 1)], np.float64))
     return _labels(np.asarray(f.albedo, np.float64)[None], cues, grain_metal=grain_metal,
                    grain_z_min=grain_z_min, albedo_sigma=albedo_sigma)[0]
 

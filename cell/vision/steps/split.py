@@ -165,7 +165,8 @@ def _best_cut(pixels: PartPixels, search: _Search, *, depth: int) -> tuple[float
             continue
         cost = (sum(scores) + faint * _ACCEPT) / (len(scores) + faint)
         if faint:
-            fallback = (cost, pieces) if cost < fallback[0] else fallback
+            if cost < fallback[0]:
+                fallback = (cost, pieces)
         elif cost < best[0]:
             best = (cost, pieces)
             if cost < _GOOD:

@@ -91,12 +91,19 @@ class LocalPool:
             # ProcessPoolExecutor has no public way to stop a running task (3.14 adds
             # terminate_workers); its processes are in ``_processes``.
             processes = list(getattr(pool, "_processes", {}).values())
+            manager = getattr(pool, "_executor_manager_thread", None)
             pool.shutdown(wait=False, cancel_futures=True)
             for p in processes:
                 if p.is_alive():
                     p.terminate()
             for p in processes:
                 p.join(5)
+            # Wait for the pool's manager thread to close its wake-up pipe: left running, it
+            # can close the pipe while the interpreter's exit hook writes to it, and a
+            # SIGTERM-ed `cell sweep` printed "OSError: [Errno 9] Bad file descriptor" with
+            # a traceback (CPython's concurrent.futures.process._python_exit, 3.11).
+            if manager is not None:
+                manager.join(5)
         else:
             pool.shutdown(wait=True)
 

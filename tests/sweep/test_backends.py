@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import types
 from concurrent.futures import Future
@@ -146,6 +147,19 @@ def test_ctrl_c_keeps_the_finished_rows_and_resume_does_the_rest(tmp_path):
 def test_sigterm_keeps_the_finished_rows_and_says_terminated(tmp_path):
     stop = _stopped_sweep(tmp_path, signal.SIGTERM)
     assert stop.status == 143 and stop.stderr.startswith("cell sweep: terminated: "), stop.stderr
+
+
+def test_a_stopped_pool_leaves_no_thread_behind():
+    """Stopping the pool mid-chunk (Ctrl-C, SIGTERM) waits for its manager thread: left
+    running, it raced the interpreter's exit hook, and a SIGTERM-ed sweep now and then
+    printed a traceback (EBADF) under its one line."""
+    before = set(threading.enumerate())
+    pool = local.LocalPool(1)
+    pool.start()
+    pool._pool.submit(time.sleep, 30)
+    pool._stop(kill=True)
+    left = [t.name for t in set(threading.enumerate()) - before]
+    assert left == [], left
 
 
 def _children(pid: int) -> list[int]:
